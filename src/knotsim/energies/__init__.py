@@ -1,0 +1,1 @@
+"""Elastic energies of Discrete Elastic Rods (numba kernels): stretching, bending, twisting."""

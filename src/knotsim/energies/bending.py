@@ -1,0 +1,170 @@
+"""Bending energy of Discrete Elastic Rods (Bergou et al. 2010), numba kernel.
+
+Per interior node ``i`` with edges ``e = x_i - x_{i-1}`` and ``f = x_{i+1} - x_i``:
+
+- curvature binormal ``kb = 2 (t_e x t_f) / (1 + t_e . t_f)`` (dimensionless, integrated curvature),
+- material curvatures ``kappa1 = 1/2 kb . (m2_e + m2_f)``, ``kappa2 = -1/2 kb . (m1_e + m1_f)``,
+- energy ``EI / (2 l_i) [(kappa1 - kbar1)^2 + (kappa2 - kbar2)^2]`` with ``l_i`` the rest Voronoi
+  length (m) and ``kbar`` the natural (integrated) curvature.
+
+Derivatives are taken with the reference frames moving by parallel transport with their edges
+(the DER convention), which is exact at the configuration the frames were transported to.
+
+Kernel arguments: ``q (n_dofs,)``; ``bend_dofs (nb, 11)``; ``bend_edges (nb, 2)``;
+``tangents (ne, 3)``, ``lengths (ne,)`` m, ``m1, m2 (ne, 3)`` material directors at ``q``;
+``EI (nb,)`` N m^2; ``voronoi (nb,)`` m; ``kappa_bar (nb, 2)``. Adds the gradient to ``grad``; when
+``want_hessian`` writes each stencil's 11x11 Hessian into ``hess (nb, 11, 11)``. Returns the
+energy (J). ``kappa_out (nb, 2)`` receives the material curvatures.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from knotsim import _vec3 as v3
+from knotsim.energies._stencil import hessian_to_stencil, scatter_gradient, set_block
+
+
+@njit(inline="always", cache=True)
+def _skew_block(H, r0, c0, s, a):
+    """``H[r0:r0+3, c0:c0+3] += s [a]_x`` (``[a]_x b = a x b``)."""
+    H[r0, c0 + 1] += -s * a[2]
+    H[r0, c0 + 2] += s * a[1]
+    H[r0 + 1, c0] += s * a[2]
+    H[r0 + 1, c0 + 2] += -s * a[0]
+    H[r0 + 2, c0] += -s * a[1]
+    H[r0 + 2, c0 + 1] += s * a[0]
+
+
+@njit(inline="always", cache=True)
+def _curvature_hessian(H, kap, sgn, n0, n1, chi, t0, t1, tt, kb, dt, me, mf, me_th, mf_th):
+    """Hessian (8x8, edge variables) of one material curvature.
+
+    For ``kappa1``: ``sgn = +1``, ``dt = d~2``, ``me, mf = m2_e, m2_f``, ``me_th, mf_th = m1_e, m1_f``.
+    For ``kappa2``: ``sgn = -1``, ``dt = d~1``, ``me, mf = m1_e, m1_f``, ``me_th, mf_th = m2_e, m2_f``.
+    """
+    for i in range(8):
+        for j in range(8):
+            H[i, j] = 0.0
+    c1 = v3.cross(t1, dt)  # t_f x d~
+    c0 = v3.cross(t0, dt)  # t_e x d~
+    # e-e block
+    s = 1.0 / (n0 * n0)
+    set_block(H, 0, 0, 2.0 * kap * s, tt, tt)
+    set_block(H, 0, 0, -sgn * s, c1, tt)
+    set_block(H, 0, 0, -sgn * s, tt, c1)
+    for p in range(3):
+        H[p, p] += -kap * s / chi
+    set_block(H, 0, 0, kap * s / chi, t0, t0)
+    set_block(H, 0, 0, sgn * 0.25 * s, kb, me)
+    set_block(H, 0, 0, sgn * 0.25 * s, me, kb)
+    # f-f block
+    s = 1.0 / (n1 * n1)
+    set_block(H, 4, 4, 2.0 * kap * s, tt, tt)
+    set_block(H, 4, 4, sgn * s, c0, tt)
+    set_block(H, 4, 4, sgn * s, tt, c0)
+    for p in range(3):
+        H[4 + p, 4 + p] += -kap * s / chi
+    set_block(H, 4, 4, kap * s / chi, t1, t1)
+    set_block(H, 4, 4, sgn * 0.25 * s, kb, mf)
+    set_block(H, 4, 4, sgn * 0.25 * s, mf, kb)
+    # e-f block and its transpose
+    s = 1.0 / (n0 * n1)
+    for p in range(3):
+        for k in range(3):
+            val = -kap * s / chi * ((1.0 if p == k else 0.0) + t0[p] * t1[k])
+            val += s * (2.0 * kap * tt[p] * tt[k] - sgn * c1[p] * tt[k] + sgn * tt[p] * c0[k])
+            H[p, 4 + k] += val
+    _skew_block(H, 0, 4, -sgn * s, dt)
+    for p in range(3):
+        for k in range(3):
+            H[4 + k, p] = H[p, 4 + k]
+    # theta-theta
+    H[3, 3] = -0.5 * sgn * v3.dot(kb, me)
+    H[7, 7] = -0.5 * sgn * v3.dot(kb, mf)
+    # theta - e/f mixed
+    ae = 0.5 * v3.dot(kb, me_th)
+    af = 0.5 * v3.dot(kb, mf_th)
+    x1e = v3.cross(t1, me_th)
+    x1f = v3.cross(t1, mf_th)
+    x0e = v3.cross(t0, me_th)
+    x0f = v3.cross(t0, mf_th)
+    for p in range(3):
+        # d2 kappa / de d theta_e, de d theta_f, df d theta_e, df d theta_f
+        ve = (ae * tt[p] - x1e[p] / chi) / n0
+        vf = (af * tt[p] - x1f[p] / chi) / n0
+        we = (ae * tt[p] + x0e[p] / chi) / n1
+        wf = (af * tt[p] + x0f[p] / chi) / n1
+        H[p, 3] = ve
+        H[3, p] = ve
+        H[p, 7] = vf
+        H[7, p] = vf
+        H[4 + p, 3] = we
+        H[3, 4 + p] = we
+        H[4 + p, 7] = wf
+        H[7, 4 + p] = wf
+
+
+@njit(cache=True)
+def bending_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2, EI, voronoi, kappa_bar,
+                   grad, hess, want_hessian, kappa_out):
+    nb = bend_dofs.shape[0]
+    g1 = np.zeros(8)
+    g2 = np.zeros(8)
+    gz = np.zeros(8)
+    H1 = np.zeros((8, 8))
+    H2 = np.zeros((8, 8))
+    Hz = np.zeros((8, 8))
+    energy = 0.0
+    for s in range(nb):
+        e = bend_edges[s, 0]
+        f = bend_edges[s, 1]
+        t0 = (tangents[e, 0], tangents[e, 1], tangents[e, 2])
+        t1 = (tangents[f, 0], tangents[f, 1], tangents[f, 2])
+        n0 = lengths[e]
+        n1 = lengths[f]
+        m1e = (m1[e, 0], m1[e, 1], m1[e, 2])
+        m2e = (m2[e, 0], m2[e, 1], m2[e, 2])
+        m1f = (m1[f, 0], m1[f, 1], m1[f, 2])
+        m2f = (m2[f, 0], m2[f, 1], m2[f, 2])
+        chi = 1.0 + v3.dot(t0, t1)
+        tt = v3.scale(1.0 / chi, v3.add(t0, t1))
+        kb = v3.scale(2.0 / chi, v3.cross(t0, t1))
+        d1t = v3.scale(1.0 / chi, v3.add(m1e, m1f))
+        d2t = v3.scale(1.0 / chi, v3.add(m2e, m2f))
+        k1 = 0.5 * v3.dot(kb, v3.add(m2e, m2f))
+        k2 = -0.5 * v3.dot(kb, v3.add(m1e, m1f))
+        kappa_out[s, 0] = k1
+        kappa_out[s, 1] = k2
+        dk1 = k1 - kappa_bar[s, 0]
+        dk2 = k2 - kappa_bar[s, 1]
+        coef = EI[s] / voronoi[s]
+        energy += 0.5 * coef * (dk1 * dk1 + dk2 * dk2)
+
+        # gradients of kappa1, kappa2 in edge variables (e, theta_e, f, theta_f)
+        a = v3.cross(t1, d2t)
+        b = v3.cross(t0, d2t)
+        c = v3.cross(t1, d1t)
+        d = v3.cross(t0, d1t)
+        for p in range(3):
+            g1[p] = (-k1 * tt[p] + a[p]) / n0
+            g1[4 + p] = (-k1 * tt[p] - b[p]) / n1
+            g2[p] = (-k2 * tt[p] - c[p]) / n0
+            g2[4 + p] = (-k2 * tt[p] + d[p]) / n1
+        g1[3] = -0.5 * v3.dot(kb, m1e)
+        g1[7] = -0.5 * v3.dot(kb, m1f)
+        g2[3] = -0.5 * v3.dot(kb, m2e)
+        g2[7] = -0.5 * v3.dot(kb, m2f)
+        for p in range(8):
+            gz[p] = dk1 * g1[p] + dk2 * g2[p]
+        scatter_gradient(gz, coef, bend_dofs[s], grad)
+
+        if want_hessian:
+            _curvature_hessian(H1, k1, 1.0, n0, n1, chi, t0, t1, tt, kb, d2t, m2e, m2f, m1e, m1f)
+            _curvature_hessian(H2, k2, -1.0, n0, n1, chi, t0, t1, tt, kb, d1t, m1e, m1f, m2e, m2f)
+            for i in range(8):
+                for j in range(8):
+                    Hz[i, j] = g1[i] * g1[j] + g2[i] * g2[j] + dk1 * H1[i, j] + dk2 * H2[i, j]
+            hessian_to_stencil(Hz, coef, hess[s])
+    return energy

@@ -1,0 +1,76 @@
+"""All elastic energies of a model evaluated together, with their reference frames.
+
+:class:`ElasticEnergy` owns the work arrays (tangents, frames, gradient, per-stencil Hessian
+blocks) so that a Newton iteration allocates nothing; the kernels it calls live in
+:mod:`~knotsim.energies.stretching`, :mod:`~knotsim.energies.bending` and
+:mod:`~knotsim.energies.twisting`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from knotsim.energies.bending import bending_energy
+from knotsim.energies.stretching import stretching_energy
+from knotsim.energies.twisting import twisting_energy
+from knotsim.rods.frames import compute_tangents, material_frames, reference_twist, transport_directors
+
+
+@dataclass
+class FrameSource:
+    """Frames the reference directors are transported from: ``d1 (ne, 3)``, ``tangents (ne, 3)``,
+    ``ref_twist (nb,)`` (rad) — usually those of the state at the start of the step."""
+
+    d1: np.ndarray
+    tangents: np.ndarray
+    ref_twist: np.ndarray
+
+
+class ElasticEnergy:
+    """Stretching + bending + twisting energy of a :class:`~knotsim.rods.Model`."""
+
+    def __init__(self, model):
+        self.model = model
+        ne, nb, nd = model.n_edges, model.n_bend, model.n_dofs
+        self.tangents = np.zeros((ne, 3))
+        self.lengths = np.zeros(ne)
+        self.d1 = np.zeros((ne, 3))
+        self.m1 = np.zeros((ne, 3))
+        self.m2 = np.zeros((ne, 3))
+        self.ref_twist = np.zeros(nb)
+        self.kappa = np.zeros((nb, 2))
+        self.twist = np.zeros(nb)
+        self.grad = np.zeros(nd)
+        self.stretch_hess = np.zeros((ne, 6, 6))
+        self.bend_hess = np.zeros((nb, 11, 11))
+        self.twist_hess = np.zeros((nb, 11, 11))
+        self.energies = {"stretching": 0.0, "bending": 0.0, "twisting": 0.0}
+
+    def update_frames(self, q: np.ndarray, source: FrameSource) -> None:
+        """Tangents, reference directors (transported from ``source``), reference twist and material
+        frames at ``q``."""
+        m = self.model
+        compute_tangents(q, m.edge_dofs, self.tangents, self.lengths)
+        transport_directors(source.d1, source.tangents, self.tangents, self.d1)
+        reference_twist(self.d1, self.tangents, m.bend_edges, source.ref_twist, self.ref_twist)
+        material_frames(self.d1, self.tangents, q[m.edge_theta_dof], self.m1, self.m2)
+
+    def evaluate(self, q: np.ndarray, source: FrameSource, want_hessian: bool = True) -> float:
+        """Energy (J) at ``q``; fills ``self.grad`` (n_dofs,) with its gradient and, when
+        ``want_hessian``, the per-stencil Hessian blocks."""
+        m = self.model
+        self.update_frames(q, source)
+        g = self.grad
+        g[:] = 0.0
+        es = stretching_energy(q, m.edge_dofs, m.rest_length, m.edge_EA, g, self.stretch_hess, want_hessian)
+        eb = bending_energy(q, m.bend_dofs, m.bend_edges, self.tangents, self.lengths, self.m1, self.m2,
+                            m.bend_EI, m.voronoi_rest, m.kappa_bar, g, self.bend_hess, want_hessian, self.kappa)
+        et = twisting_energy(q, m.bend_dofs, m.bend_edges, self.tangents, self.lengths, self.ref_twist,
+                             m.twist_GJ, m.voronoi_rest, m.twist_bar, g, self.twist_hess, want_hessian,
+                             self.twist)
+        self.energies["stretching"] = es
+        self.energies["bending"] = eb
+        self.energies["twisting"] = et
+        return es + eb + et

@@ -1,0 +1,89 @@
+"""Twisting energy of Discrete Elastic Rods, numba kernel.
+
+Per interior node: ``m = theta_f - theta_e + reference_twist`` (rad, integrated twist) and
+``E = GJ / (2 l_i) (m - mbar)^2``. The reference twist moves with the edges by parallel transport;
+its gradient is ``kb / (2 |e|)`` with respect to ``e`` and ``kb / (2 |f|)`` with respect to ``f``.
+
+Kernel arguments: ``q (n_dofs,)``; ``bend_dofs (nb, 11)``; ``bend_edges (nb, 2)``; ``tangents (ne, 3)``;
+``lengths (ne,)`` m; ``ref_twist (nb,)`` rad; ``GJ (nb,)`` N m^2; ``voronoi (nb,)`` m;
+``twist_bar (nb,)`` rad. Adds the gradient to ``grad``; when ``want_hessian`` writes 11x11 blocks into
+``hess (nb, 11, 11)``. Returns the energy (J); ``twist_out (nb,)`` receives ``m``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from knotsim import _vec3 as v3
+from knotsim.energies._stencil import hessian_to_stencil, scatter_gradient, set_block
+
+
+@njit(cache=True)
+def twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, ref_twist, GJ, voronoi, twist_bar,
+                    grad, hess, want_hessian, twist_out):
+    nb = bend_dofs.shape[0]
+    gz = np.zeros(8)
+    Hz = np.zeros((8, 8))
+    energy = 0.0
+    for s in range(nb):
+        e = bend_edges[s, 0]
+        f = bend_edges[s, 1]
+        t0 = (tangents[e, 0], tangents[e, 1], tangents[e, 2])
+        t1 = (tangents[f, 0], tangents[f, 1], tangents[f, 2])
+        n0 = lengths[e]
+        n1 = lengths[f]
+        chi = 1.0 + v3.dot(t0, t1)
+        tt = v3.scale(1.0 / chi, v3.add(t0, t1))
+        kb = v3.scale(2.0 / chi, v3.cross(t0, t1))
+        m = q[bend_dofs[s, 7]] - q[bend_dofs[s, 3]] + ref_twist[s]
+        twist_out[s] = m
+        dm = m - twist_bar[s]
+        coef = GJ[s] / voronoi[s]
+        energy += 0.5 * coef * dm * dm
+        for p in range(3):
+            gz[p] = 0.5 * kb[p] / n0
+            gz[4 + p] = 0.5 * kb[p] / n1
+        gz[3] = -1.0
+        gz[7] = 1.0
+        for p in range(8):
+            Hz[p, p] = 0.0
+        if want_hessian:
+            for i in range(8):
+                for j in range(8):
+                    Hz[i, j] = gz[i] * gz[j]
+            # dm * (Hessian of the reference twist)
+            a = v3.add(t0, tt)
+            b = v3.add(t1, tt)
+            s0 = -0.25 * dm / (n0 * n0)
+            s1 = -0.25 * dm / (n1 * n1)
+            set_block(Hz, 0, 0, s0, kb, a)
+            set_block(Hz, 0, 0, s0, a, kb)
+            set_block(Hz, 4, 4, s1, kb, b)
+            set_block(Hz, 4, 4, s1, b, kb)
+            s2 = 0.5 * dm / (n0 * n1)
+            # e-f block: (2/chi [t0]_x - kb t~^T) / (2 n0 n1)
+            for p in range(3):
+                for k in range(3):
+                    Hz[p, 4 + k] += -s2 * kb[p] * tt[k]
+            w = 2.0 / chi
+            Hz[0, 5] += -s2 * w * t0[2]
+            Hz[0, 6] += s2 * w * t0[1]
+            Hz[1, 4] += s2 * w * t0[2]
+            Hz[1, 6] += -s2 * w * t0[0]
+            Hz[2, 4] += -s2 * w * t0[1]
+            Hz[2, 5] += s2 * w * t0[0]
+            for p in range(3):
+                for k in range(3):
+                    Hz[4 + k, p] += -s2 * kb[p] * tt[k]
+            Hz[5, 0] += -s2 * w * t0[2]
+            Hz[6, 0] += s2 * w * t0[1]
+            Hz[4, 1] += s2 * w * t0[2]
+            Hz[6, 1] += -s2 * w * t0[0]
+            Hz[4, 2] += -s2 * w * t0[1]
+            Hz[5, 2] += s2 * w * t0[0]
+            hessian_to_stencil(Hz, coef, hess[s])
+        for p in range(8):
+            gz[p] *= dm
+        scatter_gradient(gz, coef, bend_dofs[s], grad)
+    return energy
