@@ -1,0 +1,325 @@
+"""Boundary conditions: clamp, hold, move along paths, twist, release, apply forces and moments.
+
+Every condition is a *named group* of nodes of one rod, active in a time window
+``[start, stop)``. Several conditions may be active at once and may start and stop at given times,
+like hands tying a knot::
+
+    bcs = BoundaryConditions(model)
+    bcs.clamp("left", rod=0, nodes=[0, 1])                      # positions + twist of edge 0
+    bcs.move("right", rod=0, nodes=[-2, -1], path=[0.006, 0, 0]) # 6 mm/s along x
+    bcs.hold("knot-bottom", rod=0, nodes=[150], stop=2.0)        # held until t = 2 s
+    bcs.release("right", at=5.0)                                 # free from t = 5 s on
+    bcs.force("weight", rod=0, nodes=[-1], force=[0, 0, -1e-3])  # N, total on the group
+
+Prescribed groups (clamp, hold, move, rotate) capture the positions of their nodes when they become
+active and prescribe them from then on; a released group keeps its velocity. The reaction of every
+prescribed group (the force, N, and twisting moment, N m, the constraint exerts on the rod) is
+reported after each step: it is the pull force of knot tests.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from knotsim.bc.paths import Path, as_path
+from knotsim.errors import ConfigError
+
+_EPS_T = 1e-12
+
+
+@dataclass
+class Group:
+    """One named boundary condition (see :class:`BoundaryConditions`)."""
+
+    name: str
+    kind: str  # "clamp" | "hold" | "move" | "rotate" | "force" | "moment"
+    rod: int
+    nodes: np.ndarray  # global node numbers
+    edges: np.ndarray  # global edge numbers whose angles are prescribed / loaded
+    start: float
+    stop: float
+    fix_twist: bool = False
+    path: Path | None = None
+    twist_angle: Callable[[float], float] | None = None
+    load: Callable[[float], np.ndarray] | None = None
+    anchor: np.ndarray | None = field(default=None, repr=False)
+    anchor_theta: np.ndarray | None = field(default=None, repr=False)
+    anchor_time: float = 0.0
+
+    @property
+    def prescribed(self) -> bool:
+        return self.kind in ("clamp", "hold", "move", "rotate")
+
+    def active(self, t: float) -> bool:
+        """Whether the group acts at time ``t`` (s): ``start <= t < stop``, with a tiny tolerance."""
+        return self.start - _EPS_T <= t < self.stop - _EPS_T
+
+
+class BoundaryConditions:
+    """The set of boundary conditions of a run (the *control* of the time stepper).
+
+    All node indices are local to the rod named by ``rod`` (index or name); negative indices count
+    from the end. Times are in s, positions in m, forces in N, moments in N m, angles in rad.
+    """
+
+    def __init__(self, model):
+        self.model = model
+        self.groups: dict[str, Group] = {}
+
+    # ------------------------------------------------------------------ building
+    def _check_name(self, name: str) -> None:
+        if not isinstance(name, str) or not name:
+            raise ConfigError("name", f"a boundary condition needs a non-empty name, got {name!r}")
+        if name in self.groups:
+            raise ConfigError(f"bc.{name}", "a boundary condition with this name already exists")
+
+    @staticmethod
+    def _check_window(name: str, start: float, stop: float) -> tuple[float, float]:
+        start = 0.0 if start is None else float(start)
+        stop = math.inf if stop is None else float(stop)
+        if not (start >= 0.0) or math.isnan(stop) or stop <= start:
+            raise ConfigError(f"bc.{name}.stop", f"need 0 <= start < stop, got start={start}, stop={stop}")
+        return start, stop
+
+    def _edges_within(self, nodes: np.ndarray) -> np.ndarray:
+        m = self.model
+        inside = np.isin(m.edge_nodes[:, 0], nodes) & np.isin(m.edge_nodes[:, 1], nodes)
+        return np.nonzero(inside)[0]
+
+    def _add(self, group: Group) -> Group:
+        if group.prescribed:
+            for other in self.groups.values():
+                if not other.prescribed:
+                    continue
+                overlap_t = group.start < other.stop and other.start < group.stop
+                common = np.intersect1d(group.nodes, other.nodes)
+                if overlap_t and common.size:
+                    local = int(common[0] - self.model.rod_node_start[group.rod])
+                    raise ConfigError(
+                        f"bc.{group.name}.nodes",
+                        f"node {local} of rod {self.model.rod_names[group.rod]!r} is already prescribed by "
+                        f"{other.kind} {other.name!r} while both are active; release one first "
+                        f"(give {other.name!r} a stop time <= {group.start})",
+                    )
+            if group.path is not None and group.path.absolute_start is not None and group.start <= 0.0:
+                centroid = self.model.node_positions(self.initial_q())[group.nodes].mean(axis=0)
+                self._check_path_start(group, centroid)
+        self.groups[group.name] = group
+        return group
+
+    def _check_path_start(self, group: Group, centroid: np.ndarray) -> None:
+        start = group.path.absolute_start
+        tol = 1e-6 * max(1.0, float(np.max(np.abs(centroid))))
+        if np.linalg.norm(start - centroid) > tol:
+            raise ConfigError(
+                f"bc.{group.name}.path",
+                f"path starts at {np.round(start, 6).tolist()} m but the group's centroid is at "
+                f"{np.round(centroid, 6).tolist()} m; start the path there or use relative displacements",
+            )
+
+    def initial_q(self) -> np.ndarray:
+        from knotsim.solver.state import initial_state
+
+        return initial_state(self.model).q
+
+    def _group_nodes(self, name, rod, nodes):
+        try:
+            r = self.model.rod_index(rod)
+            g = self.model.global_nodes(r, nodes)
+        except ConfigError as exc:
+            raise ConfigError(f"bc.{name}.{exc.field}", str(exc).split(": ", 1)[1]) from None
+        return r, np.unique(g)
+
+    def clamp(self, name: str, rod=0, nodes: Sequence[int] = (0, 1), twist: bool = True,
+              start: float = 0.0, stop: float | None = None) -> Group:
+        """Fix the positions of ``nodes`` (and, with ``twist``, the angles of the edges between them)
+        at their values when the group becomes active."""
+        self._check_name(name)
+        start, stop = self._check_window(name, start, stop)
+        r, g = self._group_nodes(name, rod, nodes)
+        return self._add(Group(name, "clamp", r, g, self._edges_within(g) if twist else np.zeros(0, np.int64),
+                               start, stop, fix_twist=twist))
+
+    def hold(self, name: str, rod=0, nodes: Sequence[int] = (0,), start: float = 0.0,
+             stop: float | None = None) -> Group:
+        """Hold ``nodes`` at the positions they have when the group becomes active (twist free)."""
+        self._check_name(name)
+        start, stop = self._check_window(name, start, stop)
+        r, g = self._group_nodes(name, rod, nodes)
+        return self._add(Group(name, "hold", r, g, np.zeros(0, np.int64), start, stop))
+
+    def move(self, name: str, rod=0, nodes: Sequence[int] = (-2, -1), path=None, twist: bool = True,
+             start: float = 0.0, stop: float | None = None) -> Group:
+        """Move ``nodes`` rigidly along ``path``: a :class:`~knotsim.bc.paths.Path`, a velocity
+        (3-vector, m/s), or a callable of elapsed time returning a displacement (m)."""
+        self._check_name(name)
+        start, stop = self._check_window(name, start, stop)
+        if path is None:
+            raise ConfigError(f"bc.{name}.path", "a moving group needs a path (velocity, waypoints or callable)")
+        try:
+            p = as_path(path)
+        except ConfigError as exc:
+            raise ConfigError(f"bc.{name}.{exc.field}", str(exc).split(": ", 1)[1]) from None
+        r, g = self._group_nodes(name, rod, nodes)
+        return self._add(Group(name, "move", r, g, self._edges_within(g) if twist else np.zeros(0, np.int64),
+                               start, stop, fix_twist=twist, path=p))
+
+    def rotate(self, name: str, rod=0, nodes: Sequence[int] = (-2, -1), rate: float | None = None,
+               angle: Callable[[float], float] | None = None, start: float = 0.0,
+               stop: float | None = None) -> Group:
+        """Clamp ``nodes`` and twist the edges between them: the edge angles grow by ``rate`` (rad/s)
+        or follow ``angle(elapsed)`` (rad)."""
+        self._check_name(name)
+        start, stop = self._check_window(name, start, stop)
+        if (rate is None) == (angle is None):
+            raise ConfigError(f"bc.{name}.rate", "give exactly one of rate (rad/s) or angle (callable)")
+        if rate is not None:
+            w = float(rate)
+            fn = lambda s, w=w: w * s  # noqa: E731
+        else:
+            if not callable(angle):
+                raise ConfigError(f"bc.{name}.angle", f"expected a callable of time, got {angle!r}")
+            a0 = float(angle(0.0))
+            fn = lambda s, a=angle, a0=a0: float(a(s)) - a0  # noqa: E731
+        r, g = self._group_nodes(name, rod, nodes)
+        edges = self._edges_within(g)
+        if edges.size == 0:
+            raise ConfigError(f"bc.{name}.nodes", "rotating needs at least two adjacent nodes (one edge to twist)")
+        return self._add(Group(name, "rotate", r, g, edges, start, stop, fix_twist=True, twist_angle=fn))
+
+    def force(self, name: str, rod=0, nodes: Sequence[int] = (-1,), force=(0.0, 0.0, 0.0),
+              start: float = 0.0, stop: float | None = None) -> Group:
+        """Apply a total force (N; a 3-vector or a callable of absolute time) split equally over
+        ``nodes``."""
+        self._check_name(name)
+        start, stop = self._check_window(name, start, stop)
+        r, g = self._group_nodes(name, rod, nodes)
+        load = _as_load(name, force, (3,))
+        return self._add(Group(name, "force", r, g, np.zeros(0, np.int64), start, stop, load=load))
+
+    def moment(self, name: str, rod=0, edges: Sequence[int] = (-1,), moment=0.0, start: float = 0.0,
+               stop: float | None = None) -> Group:
+        """Apply a twisting moment (N m, scalar or callable of absolute time) on each of ``edges``."""
+        self._check_name(name)
+        start, stop = self._check_window(name, start, stop)
+        r = self.model.rod_index(rod)
+        ne = int(self.model.rod_n_edges[r])
+        idx = np.atleast_1d(np.asarray(edges))
+        if np.any((idx < -ne) | (idx >= ne)):
+            raise ConfigError(f"bc.{name}.edges", f"edge index out of range for a rod with {ne} edges: {edges!r}")
+        ge = self.model.rod_edge_start[r] + (idx % ne)
+        load = _as_load(name, moment, ())
+        return self._add(Group(name, "moment", r, np.zeros(0, np.int64), ge, start, stop, load=load))
+
+    def release(self, name: str, at: float) -> None:
+        """End group ``name`` at time ``at`` (s); a released prescribed group keeps its velocity."""
+        if name not in self.groups:
+            raise ConfigError("release", f"no boundary condition named {name!r}; known: {sorted(self.groups)}")
+        g = self.groups[name]
+        at = float(at)
+        if at <= g.start:
+            raise ConfigError(f"bc.{name}.release", f"release time {at} s is not after the start {g.start} s")
+        g.stop = at
+
+    # ------------------------------------------------------------------ evaluation
+    def prescribed_groups(self, t: float) -> list[Group]:
+        return [g for g in self.groups.values() if g.prescribed and g.active(t)]
+
+    def evaluate(self, t: float, q_in: np.ndarray, t_in: float):
+        """Constraints and loads at time ``t`` (s) for a step starting from ``q_in`` at ``t_in``.
+
+        Returns ``(fixed_dofs (k,) int, fixed_values (k,) float, f_ext (n_dofs,) float)``. Groups that
+        become active during the step capture their anchor (the node positions and edge angles of
+        ``q_in``).
+        """
+        m = self.model
+        dofs: list[np.ndarray] = []
+        vals: list[np.ndarray] = []
+        f_ext = np.zeros(m.n_dofs)
+        for g in self.groups.values():
+            if not g.active(t):
+                g.anchor = None  # not yet active, or released: (re-)activation captures afresh
+                continue
+            if g.prescribed:
+                pos_dofs = (m.node_dof[g.nodes][:, None] + np.arange(3)[None, :]).ravel()
+                th_dofs = m.edge_theta_dof[g.edges]
+                if g.anchor is None or g.anchor_time > t_in + _EPS_T:
+                    g.anchor = q_in[pos_dofs].reshape(-1, 3).copy()
+                    g.anchor_theta = q_in[th_dofs].copy()
+                    g.anchor_time = t_in
+                    if g.path is not None and g.path.absolute_start is not None:
+                        self._check_path_start(g, g.anchor.mean(axis=0))
+                pos = g.anchor
+                if g.path is not None:
+                    disp = g.path(t - g.start) - g.path(max(g.anchor_time - g.start, 0.0))
+                    pos = pos + disp[None, :]
+                dofs.append(pos_dofs)
+                vals.append(pos.ravel())
+                if g.fix_twist and th_dofs.size:
+                    th = g.anchor_theta
+                    if g.twist_angle is not None:
+                        th = th + g.twist_angle(t - g.start) - g.twist_angle(max(g.anchor_time - g.start, 0.0))
+                    dofs.append(th_dofs)
+                    vals.append(np.asarray(th, float))
+            elif g.kind == "force":
+                f = g.load(t) / len(g.nodes)
+                for k in range(3):
+                    f_ext[m.node_dof[g.nodes] + k] += f[k]
+            elif g.kind == "moment":
+                f_ext[m.edge_theta_dof[g.edges]] += g.load(t)
+        if dofs:
+            d = np.concatenate(dofs)
+            v = np.concatenate(vals)
+        else:
+            d = np.zeros(0, np.int64)
+            v = np.zeros(0)
+        return d, v, f_ext
+
+    def reactions(self, t: float, residual: np.ndarray) -> dict[str, np.ndarray]:
+        """Reaction of every prescribed group active at ``t``: ``{name: (fx, fy, fz, moment)}``.
+
+        ``residual`` is the full residual of the equations of motion at the converged state; at a
+        prescribed unknown it is the force the constraint exerts on the rod (N, or N m for angles).
+        """
+        m = self.model
+        out = {}
+        for g in self.groups.values():
+            if not g.prescribed:
+                continue
+            if not g.active(t):
+                out[g.name] = np.zeros(4)
+                continue
+            r = np.zeros(4)
+            for k in range(3):
+                r[k] = residual[m.node_dof[g.nodes] + k].sum()
+            if g.fix_twist and g.edges.size:
+                r[3] = residual[m.edge_theta_dof[g.edges]].sum()
+            out[g.name] = r
+        return out
+
+    def reset(self) -> None:
+        """Forget captured anchors (before re-running from the initial state)."""
+        for g in self.groups.values():
+            g.anchor = None
+            g.anchor_theta = None
+
+
+def _as_load(name: str, value, shape):
+    if callable(value):
+        def load(t, f=value):
+            try:
+                out = np.asarray(f(t), dtype=float)
+            except Exception as exc:  # user code
+                raise ConfigError(f"bc.{name}", f"load function failed at t={t}: {exc}") from exc
+            if out.shape != shape or not np.all(np.isfinite(out)):
+                raise ConfigError(f"bc.{name}", f"load function must return shape {shape}, got {out!r}")
+            return out
+        return load
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != shape or not np.all(np.isfinite(arr)):
+        raise ConfigError(f"bc.{name}", f"expected a value of shape {shape} (or a callable of time), got {value!r}")
+    return lambda t, a=arr: a

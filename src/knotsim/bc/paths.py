@@ -1,0 +1,116 @@
+"""Prescribed paths for moving boundary-condition groups.
+
+A path gives the rigid displacement (m, shape ``(3,)``) of a node group as a function of the time
+elapsed since the group became active (s). Displacement is zero at elapsed time 0.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from knotsim.errors import ConfigError
+
+
+class Path:
+    """Base class: ``displacement(elapsed) -> (3,)`` m."""
+
+    absolute_start: np.ndarray | None = None
+
+    def displacement(self, elapsed: float) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def __call__(self, elapsed: float) -> np.ndarray:
+        return self.displacement(elapsed)
+
+
+class ConstantVelocity(Path):
+    """Translation at a constant velocity ``velocity (3,)`` m/s."""
+
+    def __init__(self, velocity: Sequence[float]):
+        v = np.asarray(velocity, dtype=float)
+        if v.shape != (3,) or not np.all(np.isfinite(v)):
+            raise ConfigError("velocity", f"expected 3 finite components in m/s, got {velocity!r}")
+        self.velocity = v
+
+    def displacement(self, elapsed: float) -> np.ndarray:
+        return self.velocity * elapsed
+
+    def __repr__(self) -> str:
+        return f"ConstantVelocity({self.velocity.tolist()})"
+
+
+class Waypoints(Path):
+    """Piecewise-linear motion through waypoints.
+
+    Parameters
+    ----------
+    times:
+        Increasing times (s) measured from the group's activation, first one 0.
+    points:
+        Shape ``(len(times), 3)``, m. Displacements from the group's position at activation, or, with
+        ``absolute=True``, positions of the group's centroid (then the first point must be where
+        the centroid is when the group activates).
+    After the last time the group stays at the last point.
+    """
+
+    def __init__(self, times: Sequence[float], points, absolute: bool = False):
+        t = np.asarray(times, dtype=float)
+        p = np.asarray(points, dtype=float)
+        if t.ndim != 1 or t.size < 1:
+            raise ConfigError("times", f"expected a list of at least one time, got {times!r}")
+        if p.shape != (t.size, 3):
+            raise ConfigError("points", f"expected shape ({t.size}, 3) (one 3D point per time), got {p.shape}")
+        if abs(t[0]) > 1e-12:
+            raise ConfigError("times", f"waypoint times start at 0 (time since activation), got {t[0]}")
+        if np.any(np.diff(t) <= 0):
+            raise ConfigError("times", f"waypoint times must increase strictly, got {t.tolist()}")
+        self.times = t
+        self.points = p
+        self.absolute = bool(absolute)
+        if absolute:
+            self.absolute_start = p[0].copy()
+        elif np.linalg.norm(p[0]) > 1e-12:
+            raise ConfigError(
+                "points",
+                f"relative waypoints are displacements and must start at (0, 0, 0), got {p[0].tolist()}; "
+                "use absolute=true for centroid positions",
+            )
+
+    def displacement(self, elapsed: float) -> np.ndarray:
+        out = np.empty(3)
+        for k in range(3):
+            out[k] = np.interp(elapsed, self.times, self.points[:, k])
+        return out - self.points[0]
+
+
+class FunctionPath(Path):
+    """Any Python callable ``f(elapsed) -> (3,)`` displacement in m (``f(0)`` is subtracted)."""
+
+    def __init__(self, func: Callable[[float], Sequence[float]]):
+        if not callable(func):
+            raise ConfigError("path", f"expected a callable of time, got {func!r}")
+        self.func = func
+        self._origin = self._eval(0.0)
+
+    def _eval(self, t: float) -> np.ndarray:
+        try:
+            out = np.asarray(self.func(t), dtype=float)
+        except Exception as exc:  # user code
+            raise ConfigError("path", f"the path function failed at t={t}: {exc}") from exc
+        if out.shape != (3,) or not np.all(np.isfinite(out)):
+            raise ConfigError("path", f"the path function must return 3 finite numbers, got {out!r} at t={t}")
+        return out
+
+    def displacement(self, elapsed: float) -> np.ndarray:
+        return self._eval(elapsed) - self._origin
+
+
+def as_path(value) -> Path:
+    """Coerce a :class:`Path`, a callable, or a velocity 3-vector into a :class:`Path`."""
+    if isinstance(value, Path):
+        return value
+    if callable(value):
+        return FunctionPath(value)
+    return ConstantVelocity(value)

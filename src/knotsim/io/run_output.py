@@ -1,0 +1,80 @@
+"""Files written by a run: ``trajectory.h5``, ``log.parquet``, ``run.json``.
+
+- ``trajectory.h5``: node positions and edge angles over time (format in
+  ``docs/architecture.md``), appended as the run goes;
+- ``log.parquet``: one row per accepted step (time, dt, Newton iterations, residual, energies,
+  reaction force of each named boundary-condition group, contact statistics);
+- ``run.json``: configuration (when known), knotsim version, wall time, outcome.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import time as _time
+from pathlib import Path
+
+import numpy as np
+
+import knotsim
+from knotsim.io.trajectory import TrajectoryWriter
+
+
+class RunOutput:
+    """Writes a run's files into ``output_dir`` while a :class:`~knotsim.simulation.Simulation`
+    advances. ``output_interval`` (s) spaces trajectory frames (``None``: every step)."""
+
+    def __init__(self, output_dir, sim, output_interval: float | None = None, config: dict | None = None):
+        self.dir = Path(output_dir)
+        self.dir.mkdir(parents=True, exist_ok=True)
+        m = sim.model
+        self.model = m
+        self.interval = output_interval
+        self.config = config if config is not None else getattr(sim, "config", None)
+        self.writer = TrajectoryWriter(self.dir / "trajectory.h5", m.rod_node_start, m.rod_edge_start, m.rod_closed,
+                                       m.rod_radius, m.rod_names, flush_every=16)
+        self._next = None
+        self._rows_start = len(sim.rows)
+        self.sim = sim
+        self.started = _time.strftime("%Y-%m-%dT%H:%M:%S%z")
+
+    def frame(self, sim) -> None:
+        q = sim.state.q
+        self.writer.append(sim.state.time, self.model.node_positions(q), self.model.edge_angles(q))
+        if self.interval:
+            self._next = sim.state.time + self.interval
+
+    def maybe_frame(self, sim) -> None:
+        if self.interval is None or sim.state.time >= self._next - 1e-9 * self.interval:
+            self.frame(sim)
+
+    def close(self, outcome: str, wall_time: float, t_start: float) -> None:
+        self.writer.close()
+        log = self.sim.log()
+        log.to_parquet(self.dir / "log.parquet", index=False)
+        info = {
+            "knotsim_version": knotsim.__version__,
+            "outcome": outcome,
+            "wall_time_s": wall_time,
+            "simulated_time_s": float(self.sim.state.time - t_start),
+            "steps": int(len(log)),
+            "newton_iterations": int(log["iterations"].sum()) if len(log) else 0,
+            "step_failures": int(self.sim.n_failures),
+            "started": self.started,
+            "python": platform.python_version(),
+            "machine": platform.machine(),
+            "n_rods": int(self.model.n_rods),
+            "n_nodes": int(self.model.n_nodes),
+            "config": self.config,
+        }
+        with open(self.dir / "run.json", "w") as fh:
+            json.dump(info, fh, indent=2, default=_json_default)
+
+
+def _json_default(obj):
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return str(obj)

@@ -1,0 +1,161 @@
+"""High-level driver: adaptive time stepping, logging, output files.
+
+>>> sim = Simulation(model, bcs, SolverSettings(dt=1e-3))
+>>> log = sim.run(duration=2.0)            # pandas DataFrame, one row per step
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from collections.abc import Callable
+
+import numpy as np
+import pandas as pd
+
+from knotsim.errors import ConfigError, SimulationError
+from knotsim.solver.state import State, initial_state
+from knotsim.solver.stepper import SolverSettings, StepFailure, Stepper, StepResult
+
+
+class Simulation:
+    """A model, its boundary conditions and interactions, advanced in time.
+
+    Parameters
+    ----------
+    model: :class:`~knotsim.rods.Model`.
+    bcs: :class:`~knotsim.bc.BoundaryConditions` or ``None``.
+    settings: :class:`~knotsim.solver.stepper.SolverSettings` (``dt`` is the target step, s).
+    interactions: contact/friction terms (see :class:`~knotsim.solver.stepper.Interaction`).
+    state: initial :class:`~knotsim.solver.state.State` (default: from the rod specs).
+    """
+
+    def __init__(self, model, bcs=None, settings: SolverSettings | None = None, interactions=(),
+                 state: State | None = None):
+        self.model = model
+        self.bcs = bcs
+        self.settings = settings or SolverSettings()
+        self.stepper = Stepper(model, interactions, self.settings)
+        self.state = state.copy() if state is not None else initial_state(model)
+        self.dt = self.settings.dt
+        self.dt_min = self.settings.dt_min or self.settings.dt / 1024.0
+        self._easy = 0
+        self.rows: list[dict] = []
+        self.n_failures = 0
+
+    # ------------------------------------------------------------------ stepping
+    def step(self) -> StepResult:
+        """One accepted step of (at most) the current step size, retrying with halved steps."""
+        return self._advance_one(math.inf)
+
+    def _advance_one(self, t_end: float) -> StepResult:
+        attempts = 0
+        while True:
+            h = min(self.dt, t_end - self.state.time)
+            trial = self.state.copy()
+            attempts += 1
+            try:
+                res = self.stepper.step(self.state, trial, self.bcs, h)
+            except StepFailure as exc:
+                self.n_failures += 1
+                self.dt = h / 2.0
+                self._easy = 0
+                if self.dt < self.dt_min:
+                    raise SimulationError(
+                        f"time step fell below dt_min={self.dt_min:.3g} s at t={self.state.time:.6g} s: {exc}. "
+                        "The last good state is attached (exception.last_good_state); try a smaller dt, "
+                        "softer contact, or check the boundary conditions",
+                        last_good_state=self.state.copy(), time=self.state.time) from exc
+                continue
+            self.state = trial
+            res.attempts = attempts
+            if res.iterations <= self.settings.easy_iterations:
+                self._easy += 1
+            else:
+                self._easy = 0
+            if self._easy >= self.settings.grow_after and self.dt < self.settings.dt:
+                self.dt = min(2.0 * self.dt, self.settings.dt)
+                self._easy = 0
+            self.rows.append(self._row(res))
+            return res
+
+    def _row(self, res: StepResult) -> dict:
+        row = {"time": res.time, "dt": res.dt, "iterations": res.iterations, "residual": res.residual,
+               "line_search_cuts": res.line_search_cuts, "attempts": res.attempts}
+        for k, v in res.energies.items():
+            row[f"energy_{k}"] = v
+        for name, r in res.reactions.items():
+            row[f"{name}_fx"], row[f"{name}_fy"], row[f"{name}_fz"], row[f"{name}_moment"] = (float(x) for x in r)
+            row[f"{name}_force"] = float(np.linalg.norm(r[:3]))
+        row.update(res.interaction_stats)
+        return row
+
+    def advance(self, t_end: float, callback: Callable[[Simulation, StepResult], None] | None = None) -> None:
+        """Step until ``state.time == t_end`` (s)."""
+        if not math.isfinite(t_end) or t_end < self.state.time:
+            raise ConfigError("t_end", f"must be a finite time >= current time {self.state.time}, got {t_end}")
+        eps = 1e-12 * max(1.0, abs(t_end))
+        while self.state.time < t_end - eps:
+            res = self._advance_one(t_end)
+            if callback is not None:
+                callback(self, res)
+
+    def run(self, duration: float, output_dir=None, output_interval: float | None = None,
+            progress: bool | None = None, callback=None) -> pd.DataFrame:
+        """Run for ``duration`` s; returns the per-step log as a DataFrame.
+
+        With ``output_dir`` writes ``trajectory.h5`` (frames every ``output_interval`` s, default
+        every step), ``log.parquet`` and ``run.json`` there (see :mod:`knotsim.io.run_output`).
+        ``progress``: show a progress bar (default: only when stderr is a terminal).
+        """
+        if not (isinstance(duration, int | float) and duration > 0 and math.isfinite(duration)):
+            raise ConfigError("duration", f"must be a positive time in s, got {duration!r}")
+        from knotsim.io.run_output import RunOutput
+
+        t_end = self.state.time + duration
+        out = RunOutput(output_dir, self, output_interval) if output_dir is not None else None
+        bar = _progress_bar(duration, progress)
+        wall0 = _time.perf_counter()
+        outcome = "completed"
+        t_start = self.state.time
+        try:
+            if out is not None:
+                out.frame(self)
+
+            def cb(sim, res):
+                if out is not None:
+                    out.maybe_frame(sim)
+                if bar is not None:
+                    bar.update(res.dt)
+                if callback is not None:
+                    callback(sim, res)
+
+            self.advance(t_end, cb)
+        except SimulationError as exc:
+            outcome = f"failed: {exc}"
+            raise
+        except KeyboardInterrupt:
+            outcome = "interrupted"
+            raise
+        finally:
+            if bar is not None:
+                bar.close()
+            if out is not None:
+                out.close(outcome, _time.perf_counter() - wall0, t_start)
+        return self.log()
+
+    def log(self) -> pd.DataFrame:
+        """Per-step log so far (one row per accepted step)."""
+        return pd.DataFrame(self.rows)
+
+
+def _progress_bar(total: float, progress: bool | None):
+    import sys
+
+    if progress is None:
+        progress = sys.stderr.isatty()
+    if not progress:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, unit="s(sim)", bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s [{elapsed}<{remaining}]")

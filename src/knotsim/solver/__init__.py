@@ -1,0 +1,1 @@
+"""Time stepping: state, Newton solver, linear solvers, implicit Euler stepper, static solve."""

@@ -1,0 +1,146 @@
+"""Assembly of Newton's matrix from dense per-stencil blocks (numba kernels).
+
+Two storages:
+
+- *banded* (LAPACK ``gbsv`` layout, ``ab[kl + ku + i - j, j] = A[i, j]``), used when every block lies
+  within a narrow band (rods without contact and without closing edges): the fast path;
+- *CSC* with a pattern built once per change of the block structure (e.g. of the contact set);
+  every block entry gets the index of its slot in ``data`` so refilling values is a scatter.
+
+Constrained unknowns are eliminated by replacing their rows and columns with the identity (the
+Newton increment there is zero because prescribed values are set before the solve).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from numba import njit
+
+# ---------------------------------------------------------------------------- banded kernels
+
+
+@njit(cache=True)
+def banded_add_blocks(ab, row0, dofs, blocks):
+    """``A[dofs[b], dofs[b]] += blocks[b]`` in banded storage with ``row0 = kl + ku``."""
+    nb, k = dofs.shape
+    for b in range(nb):
+        for i in range(k):
+            gi = dofs[b, i]
+            for j in range(k):
+                gj = dofs[b, j]
+                ab[row0 + gi - gj, gj] += blocks[b, i, j]
+
+
+@njit(cache=True)
+def banded_add_diagonal(ab, row0, diag):
+    for i in range(diag.shape[0]):
+        ab[row0, i] += diag[i]
+
+
+@njit(cache=True)
+def banded_constrain(ab, row0, kl, ku, fixed):
+    """Identity rows/columns for every unknown in ``fixed`` (bool mask)."""
+    n = fixed.shape[0]
+    for c in range(n):
+        if not fixed[c]:
+            continue
+        # column c
+        for i in range(max(0, c - ku), min(n, c + kl + 1)):
+            ab[row0 + i - c, c] = 0.0
+        # row c
+        for j in range(max(0, c - kl), min(n, c + ku + 1)):
+            ab[row0 + c - j, j] = 0.0
+        ab[row0, c] = 1.0
+
+
+# ---------------------------------------------------------------------------- CSC kernels
+
+
+@njit(cache=True)
+def _find(indices, lo, hi, row):
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if indices[mid] < row:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True)
+def csc_block_map(indptr, indices, dofs):
+    """Slot in ``data`` of every entry of every block: ``(nb, k, k)`` int64."""
+    nb, k = dofs.shape
+    out = np.empty((nb, k, k), np.int64)
+    for b in range(nb):
+        for j in range(k):
+            col = dofs[b, j]
+            lo = indptr[col]
+            hi = indptr[col + 1]
+            for i in range(k):
+                out[b, i, j] = _find(indices, lo, hi, dofs[b, i])
+    return out
+
+
+@njit(cache=True)
+def csc_diag_map(indptr, indices, n):
+    out = np.empty(n, np.int64)
+    for c in range(n):
+        out[c] = _find(indices, indptr[c], indptr[c + 1], c)
+    return out
+
+
+@njit(cache=True)
+def csc_add_blocks(data, slots, blocks):
+    nb, k, _ = blocks.shape
+    for b in range(nb):
+        for i in range(k):
+            for j in range(k):
+                data[slots[b, i, j]] += blocks[b, i, j]
+
+
+@njit(cache=True)
+def csc_add_diagonal(data, diag_slots, diag):
+    for i in range(diag.shape[0]):
+        data[diag_slots[i]] += diag[i]
+
+
+@njit(cache=True)
+def csc_constrain(indptr, indices, data, fixed):
+    n = indptr.shape[0] - 1
+    for c in range(n):
+        for p in range(indptr[c], indptr[c + 1]):
+            r = indices[p]
+            if fixed[r] or fixed[c]:
+                data[p] = 1.0 if r == c else 0.0
+
+
+# ---------------------------------------------------------------------------- pattern
+
+
+def csc_pattern(n: int, dof_groups: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Sorted CSC structure ``(indptr, indices)`` of the union of all blocks plus the diagonal."""
+    rows = [np.arange(n, dtype=np.int64)]
+    cols = [np.arange(n, dtype=np.int64)]
+    for dofs in dof_groups:
+        if dofs.size == 0:
+            continue
+        k = dofs.shape[1]
+        rows.append(np.repeat(dofs, k, axis=1).ravel())
+        cols.append(np.tile(dofs, (1, k)).ravel())
+    r = np.concatenate(rows)
+    c = np.concatenate(cols)
+    m = sp.csc_matrix((np.ones(r.size), (r, c)), shape=(n, n))
+    m.sum_duplicates()
+    m.sort_indices()
+    return m.indptr.astype(np.int64), m.indices.astype(np.int64)
+
+
+def bandwidth(dof_groups: list[np.ndarray]) -> int:
+    """Largest ``|i - j|`` over all block entries."""
+    bw = 0
+    for dofs in dof_groups:
+        if dofs.size:
+            bw = max(bw, int(np.max(dofs.max(axis=1) - dofs.min(axis=1))))
+    return bw

@@ -1,0 +1,99 @@
+"""Newton–Raphson with a backtracking line search, as a function returning a result record."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+
+class NonlinearSystem(Protocol):
+    def residual(self, q: np.ndarray, want_jacobian: bool) -> np.ndarray:
+        """Full residual at ``q``; when ``want_jacobian`` also assembles the Jacobian there."""
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """Solve with the last assembled Jacobian (constrained unknowns eliminated)."""
+
+    merit: float
+    """Incremental potential at the last evaluated point (J), or NaN when not available."""
+
+    def residual_norm(self, r: np.ndarray) -> float:
+        """Convergence norm over free unknowns, in units of ``force_tol``'s reference (1 = tolerance)."""
+
+    def step_norm(self, dq: np.ndarray) -> float:
+        """Step norm in units of ``step_tol`` (1 = tolerance)."""
+
+
+@dataclass
+class NewtonResult:
+    """Outcome of :func:`newton_solve`.
+
+    ``residual`` and ``step`` are in tolerance units (converged means ``residual <= 1`` and
+    ``step <= 1``, or ``residual <= 0.01``); ``reason`` says why it stopped when not converged.
+    """
+
+    q: np.ndarray
+    converged: bool
+    iterations: int
+    residual: float
+    step: float
+    line_search_cuts: int
+    reason: str = ""
+
+
+def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 25,
+                 line_search: bool = True, max_cuts: int = 8) -> NewtonResult:
+    """Solve ``residual(q) = 0`` from ``q0`` (prescribed unknowns already set in ``q0``).
+
+    Each iteration solves ``J dq = -r`` and accepts ``q + a dq`` with the largest
+    ``a = 1, 1/2, ...`` (at most ``max_cuts`` halvings) that reduces either the residual norm or the
+    system's incremental potential ``merit`` (Armijo condition with slope ``r . dq``); if none does,
+    the smallest step is taken. Accepting a decrease of the potential lets Newton take the full
+    steps that stiff stretching makes look bad in residual norm (a bending step raises the stretching
+    residual before the next iteration removes it).
+    """
+    q = q0.copy()
+    r = system.residual(q, True)
+    rn = system.residual_norm(r)
+    step = np.inf
+    cuts_total = 0
+    for it in range(max_iterations + 1):
+        if not np.isfinite(rn):
+            return NewtonResult(q, False, it, rn, step, cuts_total, "residual is not finite")
+        if rn <= 0.01 or (rn <= 1.0 and (it == 0 or step <= 1.0)):
+            return NewtonResult(q, True, it, rn, step if it else 0.0, cuts_total)
+        if it == max_iterations:
+            break
+        dq = system.solve(-r)
+        if not np.all(np.isfinite(dq)):
+            return NewtonResult(q, False, it, rn, step, cuts_total, "linear solve gave a non-finite step")
+        a = 1.0
+        merit0 = system.merit
+        slope = float(np.dot(r, dq))
+        q_try = q + dq
+        r_try = system.residual(q_try, True)
+        rn_try = system.residual_norm(r_try)
+
+        def acceptable(a, rn_try):
+            if rn_try <= (1.0 - 1e-4 * a) * rn:
+                return True
+            m = system.merit
+            return slope < 0.0 and np.isfinite(m) and m <= merit0 + 1e-4 * a * slope
+
+        if line_search:
+            cuts = 0
+            while not acceptable(a, rn_try) and cuts < max_cuts:
+                a *= 0.5
+                cuts += 1
+                q_try = q + a * dq
+                r_try = system.residual(q_try, False)
+                rn_try = system.residual_norm(r_try)
+            if cuts:
+                cuts_total += cuts
+                r_try = system.residual(q_try, True)  # Jacobian at the accepted point
+                rn_try = system.residual_norm(r_try)
+        step = system.step_norm(a * dq)
+        q, r, rn = q_try, r_try, rn_try
+    return NewtonResult(q, False, max_iterations, rn, step, cuts_total,
+                        f"no convergence in {max_iterations} iterations (residual {rn:.3g} x tolerance)")

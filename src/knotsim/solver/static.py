@@ -1,0 +1,97 @@
+"""Quasi-static equilibrium: the Newton machinery of the stepper without inertia.
+
+Loads (gravity and boundary-condition forces) are applied in increments of a load factor from 0 to
+1 (continuation); an increment that fails is halved. Prescribed motions are evaluated at
+``time`` (default: the state's time).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from knotsim.errors import SimulationError
+from knotsim.solver.linear import LinearSolveError
+from knotsim.solver.newton import newton_solve
+from knotsim.solver.state import State, initial_state
+from knotsim.solver.stepper import SolverSettings, Stepper, _StepSystem
+
+
+@dataclass
+class StaticResult:
+    """Equilibrium state with its Newton statistics and the reactions of prescribed groups."""
+
+    state: State
+    load_increments: int
+    iterations: int
+    residual: float
+    energies: dict
+    reactions: dict
+
+
+def solve_static(model, control=None, state: State | None = None, settings: SolverSettings | None = None,
+                 interactions=(), load_steps: int = 10, min_increment: float = 1e-4,
+                 time: float | None = None) -> StaticResult:
+    """Find the equilibrium ``grad E(q) = F_ext`` with prescribed unknowns held.
+
+    ``load_steps`` is the initial number of equal load increments. Raises
+    :class:`~knotsim.errors.SimulationError` (with the last equilibrium reached) if an increment
+    smaller than ``min_increment`` fails.
+    """
+    stepper = Stepper(model, interactions, settings or SolverSettings())
+    state = (state or initial_state(model)).copy()
+    t = state.time if time is None else float(time)
+    n = model.n_dofs
+    if control is not None:
+        fixed_dofs, fixed_vals, f_bc = control.evaluate(t, state.q, state.time)
+    else:
+        fixed_dofs, fixed_vals, f_bc = np.zeros(0, np.int64), np.zeros(0), np.zeros(n)
+    fixed = np.zeros(n, np.bool_)
+    fixed[fixed_dofs] = True
+    load_total = stepper.gravity_force + f_bc
+    lam = 0.0
+    dlam = 1.0 / max(1, int(load_steps))
+    increments = 0
+    iterations = 0
+    system = None
+    q_fixed_start = state.q[fixed_dofs].copy()
+    while lam < 1.0 - 1e-12:
+        target = min(1.0, lam + dlam)
+        q0 = state.q.copy()
+        q0[fixed_dofs] = q_fixed_start + target * (fixed_vals - q_fixed_start)
+        for inter in stepper.interactions:
+            inter.begin_step(state, 1.0)
+        system = _StepSystem(stepper, state, 1.0, fixed, target * load_total, static=True)
+        try:
+            res = newton_solve(system, q0, stepper.settings.max_iterations, stepper.settings.line_search)
+            ok = res.converged
+        except LinearSolveError:
+            ok = False
+        if not ok:
+            dlam *= 0.5
+            if dlam < min_increment:
+                raise SimulationError(
+                    f"static solve failed at load factor {lam:.4g}: increment {dlam:.2g} below min_increment; "
+                    "the structure may be unstable (buckling) or under-constrained (add a clamp)",
+                    last_good_state=state, time=state.time)
+            continue
+        stepper.elastic.update_frames(res.q, system.source)
+        state.q = res.q
+        state.d1 = stepper.elastic.d1.copy()
+        state.tangents = stepper.elastic.tangents.copy()
+        state.ref_twist = stepper.elastic.ref_twist.copy()
+        state.v[:] = 0.0
+        lam = target
+        increments += 1
+        iterations += res.iterations
+        if res.iterations <= 4:
+            dlam = min(2 * dlam, 1.0)
+    if system is None:  # nothing to do: evaluate once for reactions
+        system = _StepSystem(stepper, state, 1.0, fixed, load_total, static=True)
+        system.residual(state.q, False)
+    else:
+        system.residual(state.q, False)
+    reactions = control.reactions(t, system.last_full_residual) if control is not None else {}
+    return StaticResult(state, increments, iterations, system.residual_norm(
+        np.where(fixed, 0.0, system.last_full_residual)), dict(system.energies), reactions)

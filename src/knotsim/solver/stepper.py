@@ -1,0 +1,325 @@
+"""Implicit (backward) Euler time stepper: ``step(state_in, state_out, control, dt)``.
+
+Finds ``q`` with ``M (q - q_n - dt v_n)/dt^2 + D (q - q_n)/dt + grad E(q) - F_ext - F_interactions(q) = 0``
+by Newton's method (prescribed unknowns removed), then sets ``v = (q - q_n)/dt``. ``D`` is the
+viscous damping ``eta * Voronoi length`` per position unknown. Interactions (contact, friction)
+plug in through a small protocol (see :class:`Interaction`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from knotsim.energies.elastic import ElasticEnergy, FrameSource
+from knotsim.errors import ConfigError
+from knotsim.solver import assembly as asm
+from knotsim.solver.linear import BandedSolver, LinearSolveError, SparseSolver
+from knotsim.solver.newton import newton_solve
+from knotsim.solver.state import State
+
+
+class Interaction(Protocol):
+    """What a force term other than elasticity (contact, friction) provides to the stepper."""
+
+    name: str
+
+    def begin_step(self, state_in: State, dt: float) -> None:
+        """Once per step attempt: choose the active set (broad phase), stiffnesses, ..."""
+
+    def block_dofs(self) -> np.ndarray:
+        """Unknowns of each Jacobian block this step, ``(k, m)`` int (may be ``(0, m)``)."""
+
+    def evaluate(self, q: np.ndarray, q_prev: np.ndarray, dt: float, residual: np.ndarray,
+                 want_jacobian: bool) -> tuple[float, np.ndarray | None]:
+        """Add ``-force`` to ``residual`` and return ``(energy, blocks (k, m, m) of d(-force)/dq)``."""
+
+    def check(self, q: np.ndarray) -> str | None:
+        """Reason to reject a converged step (e.g. penetration too deep), or ``None``."""
+
+    def stats(self) -> dict:
+        """Numbers to log for the last accepted step."""
+
+
+class StepFailure(Exception):
+    """A step attempt failed (Newton did not converge, or an interaction rejected the result)."""
+
+
+@dataclass
+class SolverSettings:
+    """Settings of the Newton solver and time stepper.
+
+    - ``dt``: target time step, s; ``dt_min``: smallest step before giving up (default ``dt/1024``);
+    - ``max_iterations``: Newton iterations per attempt;
+    - ``force_tol`` (N) and ``moment_tol`` (N m): residual tolerances; default
+      ``1e-6 EI/(L l)`` and that times the mean edge length ``l`` (smallest over rods);
+    - ``step_tol`` (m): Newton step tolerance, default ``1e-6 l``; ``angle_tol`` (rad) likewise 1e-6;
+    - ``grow_after``: consecutive easy steps (at most ``easy_iterations`` iterations) before the step
+      doubles back towards ``dt``;
+    - ``linear_solver``: ``"auto"`` (banded when possible), ``"banded"``, ``"sparse"``;
+    - ``predictor``: initial Newton guess, ``"velocity"`` (``q_n + dt v_n``) or ``"previous"``.
+    """
+
+    dt: float = 1e-3
+    dt_min: float | None = None
+    max_iterations: int = 25
+    force_tol: float | None = None
+    moment_tol: float | None = None
+    step_tol: float | None = None
+    angle_tol: float = 1e-6
+    line_search: bool = True
+    grow_after: int = 5
+    easy_iterations: int = 4
+    linear_solver: str = "auto"
+    predictor: str = "velocity"
+
+    def validate(self) -> None:
+        if not (isinstance(self.dt, int | float) and self.dt > 0 and math.isfinite(self.dt)):
+            raise ConfigError("solver.dt", f"must be a positive time step in s, got {self.dt!r}")
+        if self.dt_min is not None and not (0 < self.dt_min <= self.dt):
+            raise ConfigError("solver.dt_min", f"must lie in (0, dt={self.dt}], got {self.dt_min!r}")
+        if not (isinstance(self.max_iterations, int) and self.max_iterations >= 1):
+            raise ConfigError("solver.max_iterations", f"must be a positive integer, got {self.max_iterations!r}")
+        for name in ("force_tol", "moment_tol", "step_tol", "angle_tol"):
+            v = getattr(self, name)
+            if v is not None and not (v > 0):
+                raise ConfigError(f"solver.{name}", f"must be positive, got {v!r}")
+        if self.linear_solver not in ("auto", "banded", "sparse"):
+            raise ConfigError("solver.linear_solver",
+                              f"must be 'auto', 'banded' or 'sparse', got {self.linear_solver!r}")
+        if self.predictor not in ("velocity", "previous"):
+            raise ConfigError("solver.predictor", f"must be 'velocity' or 'previous', got {self.predictor!r}")
+
+
+@dataclass
+class StepResult:
+    """Record of one accepted step."""
+
+    time: float
+    dt: float
+    iterations: int
+    residual: float
+    line_search_cuts: int
+    energies: dict = field(default_factory=dict)
+    reactions: dict = field(default_factory=dict)
+    interaction_stats: dict = field(default_factory=dict)
+    solver: str = ""
+    attempts: int = 1
+
+
+class _StepSystem:
+    """Residual and Jacobian of one implicit step (or of a static equilibrium)."""
+
+    def __init__(self, stepper: Stepper, state_in: State, dt: float, fixed: np.ndarray,
+                 f_ext: np.ndarray, static: bool):
+        self.s = stepper
+        self.q_n = state_in.q
+        self.v_n = state_in.v
+        self.dt = dt
+        self.fixed = fixed
+        self.free = ~fixed
+        self.f_ext = f_ext
+        self.static = static
+        self.source = FrameSource(state_in.d1, state_in.tangents, state_in.ref_twist)
+        self.last_full_residual = None
+        self.energies = {}
+        self.merit = float("nan")
+        m = stepper.model
+        if static:
+            self.diag = np.zeros(m.n_dofs)
+        else:
+            self.diag = m.mass / dt**2 + stepper.damping_coef / dt
+        self._mode = None
+
+    # -- residual / Jacobian --------------------------------------------------------------
+    def residual(self, q: np.ndarray, want_jacobian: bool) -> np.ndarray:
+        s = self.s
+        el = s.elastic
+        e_el = el.evaluate(q, self.source, want_jacobian)
+        r = el.grad.copy()
+        r -= self.f_ext
+        merit = e_el - float(np.dot(self.f_ext, q))
+        if not self.static:
+            dq = q - self.q_n
+            inert = dq - self.dt * self.v_n
+            r += s.model.mass * inert / self.dt**2
+            r += s.damping_coef * dq / self.dt
+            merit += 0.5 * float(np.dot(s.model.mass * inert, inert)) / self.dt**2
+            merit += 0.5 * float(np.dot(s.damping_coef * dq, dq)) / self.dt
+        inter_blocks = []
+        self.energies = dict(el.energies)
+        for inter in s.interactions:
+            e, blocks = inter.evaluate(q, self.q_n, self.dt, r, want_jacobian)
+            self.energies[inter.name] = e
+            merit += e
+            inter_blocks.append(blocks)
+        self.merit = merit
+        self.energies["elastic"] = e_el
+        self.last_full_residual = r.copy()
+        r[self.fixed] = 0.0
+        if want_jacobian:
+            s._assemble(self.diag, inter_blocks, self.fixed)
+        return r
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        return self.s._solve(rhs)
+
+    def residual_norm(self, r: np.ndarray) -> float:
+        m = self.s.model
+        rp = np.max(np.abs(r[m.position_mask])) if m.n_dofs else 0.0
+        rt = np.max(np.abs(r[m.theta_mask])) if m.n_edges else 0.0
+        return max(rp / self.s.force_tol, rt / self.s.moment_tol)
+
+    def step_norm(self, dq: np.ndarray) -> float:
+        m = self.s.model
+        sp_ = np.max(np.abs(dq[m.position_mask]))
+        st = np.max(np.abs(dq[m.theta_mask])) if m.n_edges else 0.0
+        return max(sp_ / self.s.step_tol, st / self.s.settings.angle_tol)
+
+
+class Stepper:
+    """Backward-Euler stepper for a :class:`~knotsim.rods.Model` with optional interactions."""
+
+    def __init__(self, model, interactions=(), settings: SolverSettings | None = None):
+        self.model = model
+        self.interactions = list(interactions)
+        self.settings = settings or SolverSettings()
+        self.settings.validate()
+        self.elastic = ElasticEnergy(model)
+        m = model
+        self.damping_coef = np.zeros(m.n_dofs)
+        for k in range(3):
+            self.damping_coef[m.node_dof + k] = m.damping * m.node_voronoi
+        self.gravity_force = np.zeros(m.n_dofs)
+        for k in range(3):
+            self.gravity_force[m.node_dof + k] = m.mass[m.node_dof + k] * m.gravity[k]
+        # tolerances
+        scales = []
+        lens = []
+        for r, rod in enumerate(m.rods):
+            e0, e1 = m.rod_edge_start[r], m.rod_edge_start[r + 1]
+            lmean = float(np.mean(m.rest_length[e0:e1]))
+            L = float(np.sum(m.rest_length[e0:e1]))
+            scales.append(rod.EI / (L * lmean))
+            lens.append(lmean)
+        st = self.settings
+        self.force_tol = st.force_tol if st.force_tol is not None else 1e-6 * min(scales)
+        lmin = min(lens)
+        self.moment_tol = st.moment_tol if st.moment_tol is not None else self.force_tol * lmin
+        self.step_tol = st.step_tol if st.step_tol is not None else 1e-6 * lmin
+        # assembly structure
+        self._elastic_groups = [m.stretch_dofs, m.bend_dofs]
+        self._elastic_bw = asm.bandwidth(self._elastic_groups)
+        self._banded = BandedSolver()
+        self._sparse = SparseSolver()
+        self._pattern_key = None
+        self._pattern_id = 0
+        self._bend_twist = np.zeros((m.n_bend, 11, 11))
+        self.last_solver = ""
+
+    # -- assembly -------------------------------------------------------------------------
+    def _use_banded(self, inter_dofs) -> bool:
+        mode = self.settings.linear_solver
+        if mode == "sparse":
+            return False
+        bw = max([self._elastic_bw] + [asm.bandwidth([d]) for d in inter_dofs])
+        if mode == "banded":
+            return True
+        return bw <= 24
+
+    def _assemble(self, diag, inter_blocks, fixed) -> None:
+        m = self.model
+        el = self.elastic
+        np.add(el.bend_hess, el.twist_hess, out=self._bend_twist)
+        inter_dofs = [inter.block_dofs() for inter in self.interactions]
+        n = m.n_dofs
+        if self._use_banded(inter_dofs):
+            bw = max([self._elastic_bw] + [asm.bandwidth([d]) for d in inter_dofs])
+            kl = ku = max(bw, 1)
+            ab = np.zeros((2 * kl + ku + 1, n))
+            row0 = kl + ku
+            asm.banded_add_diagonal(ab, row0, diag)
+            asm.banded_add_blocks(ab, row0, m.stretch_dofs, el.stretch_hess)
+            asm.banded_add_blocks(ab, row0, m.bend_dofs, self._bend_twist)
+            for dofs, blocks in zip(inter_dofs, inter_blocks, strict=True):
+                if blocks is not None and dofs.size:
+                    asm.banded_add_blocks(ab, row0, dofs, blocks)
+            asm.banded_constrain(ab, row0, kl, ku, fixed)
+            self._system = ("banded", ab, kl, ku)
+            self.last_solver = "banded"
+            return
+        key = tuple((d.shape, hash(d.tobytes())) for d in inter_dofs)
+        if key != self._pattern_key:
+            indptr, indices = asm.csc_pattern(n, self._elastic_groups + inter_dofs)
+            self._indptr, self._indices = indptr, indices
+            self._diag_slots = asm.csc_diag_map(indptr, indices, n)
+            self._stretch_slots = asm.csc_block_map(indptr, indices, m.stretch_dofs)
+            self._bend_slots = asm.csc_block_map(indptr, indices, m.bend_dofs)
+            self._inter_slots = [asm.csc_block_map(indptr, indices, d) if d.size else None for d in inter_dofs]
+            self._pattern_key = key
+            self._pattern_id += 1
+        data = np.zeros(self._indices.size)
+        asm.csc_add_diagonal(data, self._diag_slots, diag)
+        asm.csc_add_blocks(data, self._stretch_slots, el.stretch_hess)
+        asm.csc_add_blocks(data, self._bend_slots, self._bend_twist)
+        for slots, blocks in zip(self._inter_slots, inter_blocks, strict=True):
+            if slots is not None and blocks is not None:
+                asm.csc_add_blocks(data, slots, blocks)
+        asm.csc_constrain(self._indptr, self._indices, data, fixed)
+        self._system = ("sparse", data)
+        self.last_solver = "sparse"
+
+    def _solve(self, rhs: np.ndarray) -> np.ndarray:
+        if self._system[0] == "banded":
+            _, ab, kl, ku = self._system
+            return self._banded.solve(ab.copy(), kl, ku, rhs)
+        return self._sparse.solve(self.model.n_dofs, self._indptr, self._indices, self._system[1], rhs,
+                                  self._pattern_id)
+
+    # -- stepping -------------------------------------------------------------------------
+    def step(self, state_in: State, state_out: State, control, dt: float) -> StepResult:
+        """Advance ``state_in`` by ``dt`` (s) into ``state_out`` (may be the same object only if
+        the caller keeps a copy for retries). Raises :class:`StepFailure` if Newton fails."""
+        m = self.model
+        t_new = state_in.time + dt
+        fixed_dofs, fixed_vals, f_bc = control.evaluate(t_new, state_in.q, state_in.time) if control else (
+            np.zeros(0, np.int64), np.zeros(0), np.zeros(m.n_dofs))
+        fixed = np.zeros(m.n_dofs, np.bool_)
+        fixed[fixed_dofs] = True
+        for inter in self.interactions:
+            inter.begin_step(state_in, dt)
+        q0 = state_in.q + dt * state_in.v if self.settings.predictor == "velocity" else state_in.q.copy()
+        q0[fixed_dofs] = fixed_vals
+        system = _StepSystem(self, state_in, dt, fixed, self.gravity_force + f_bc, static=False)
+        try:
+            res = newton_solve(system, q0, self.settings.max_iterations, self.settings.line_search)
+        except LinearSolveError as exc:
+            raise StepFailure(str(exc)) from exc
+        if not res.converged:
+            raise StepFailure(res.reason)
+        for inter in self.interactions:
+            reason = inter.check(res.q)
+            if reason:
+                raise StepFailure(reason)
+        q = res.q
+        # frames at the solution (the last evaluation may have been a line-search trial)
+        self.elastic.update_frames(q, system.source)
+        v_new = (q - state_in.q) / dt
+        energies = dict(system.energies)
+        energies["kinetic"] = 0.5 * float(np.dot(m.mass * v_new, v_new))
+        energies["gravity"] = -float(np.dot(self.gravity_force, q))
+        reactions = control.reactions(t_new, system.last_full_residual) if control else {}
+        state_out.q = q
+        state_out.v = v_new
+        state_out.d1 = self.elastic.d1.copy()
+        state_out.tangents = self.elastic.tangents.copy()
+        state_out.ref_twist = self.elastic.ref_twist.copy()
+        state_out.time = t_new
+        stats = {}
+        for inter in self.interactions:
+            stats.update(inter.stats())
+        return StepResult(t_new, dt, res.iterations, res.residual, res.line_search_cuts, energies, reactions,
+                          stats, self.last_solver)
