@@ -61,7 +61,7 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
     for it in range(max_iterations + 1):
         if not np.isfinite(rn):
             return NewtonResult(q, False, it, rn, step, cuts_total, "residual is not finite")
-        if rn <= 0.01 or (rn <= 1.0 and (it == 0 or step <= 1.0)):
+        if rn <= 0.01 or (rn <= 1.0 and it > 0 and step <= 1.0):
             return NewtonResult(q, True, it, rn, step if it else 0.0, cuts_total)
         if it == max_iterations:
             break

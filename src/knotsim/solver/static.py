@@ -32,10 +32,13 @@ class StaticResult:
 
 def solve_static(model, control=None, state: State | None = None, settings: SolverSettings | None = None,
                  interactions=(), load_steps: int = 10, min_increment: float = 1e-4,
-                 time: float | None = None) -> StaticResult:
+                 time: float | None = None, relaxation: bool = True) -> StaticResult:
     """Find the equilibrium ``grad E(q) = F_ext`` with prescribed unknowns held.
 
-    ``load_steps`` is the initial number of equal load increments. Raises
+    ``load_steps`` is the initial number of equal load increments. When Newton fails for an
+    increment and ``relaxation`` is on, the increment is first retried by pseudo-transient
+    continuation (proximal steps ``M (q - q_k)/tau^2 + grad E(q) = F`` with a growing pseudo time
+    step ``tau``, which regularises an indefinite Hessian far from equilibrium). Raises
     :class:`~knotsim.errors.SimulationError` (with the last equilibrium reached) if an increment
     smaller than ``min_increment`` fails.
     """
@@ -68,6 +71,11 @@ def solve_static(model, control=None, state: State | None = None, settings: Solv
             ok = res.converged
         except LinearSolveError:
             ok = False
+        if not ok and relaxation:
+            relaxed = _pseudo_transient(stepper, state, fixed, target * load_total, q0)
+            if relaxed is not None:
+                system, res = relaxed
+                ok = True
         if not ok:
             dlam *= 0.5
             if dlam < min_increment:
@@ -95,3 +103,43 @@ def solve_static(model, control=None, state: State | None = None, settings: Solv
     reactions = control.reactions(t, system.last_full_residual) if control is not None else {}
     return StaticResult(state, increments, iterations, system.residual_norm(
         np.where(fixed, 0.0, system.last_full_residual)), dict(system.energies), reactions)
+
+
+def _pseudo_transient(stepper, state: State, fixed, load, q0, tau0: float = 1e-3, max_steps: int = 400):
+    """Reach the equilibrium for ``load`` from ``q0`` by proximal (inertia-like) steps.
+
+    Returns ``(system, newton_result)`` of the final plain Newton solve, or ``None``.
+    """
+    s = state.copy()
+    s.q = q0.copy()
+    s.v[:] = 0.0
+    tau = tau0
+    for _ in range(max_steps):
+        system = _StepSystem(stepper, s, tau, fixed, load, static=False)
+        system.v_n = np.zeros_like(s.v)
+        try:
+            res = newton_solve(system, s.q.copy(), stepper.settings.max_iterations, True)
+        except LinearSolveError:
+            res = None
+        if res is None or not res.converged:
+            tau *= 0.25
+            if tau < 1e-9:
+                return None
+            continue
+        stepper.elastic.update_frames(res.q, system.source)
+        s.q = res.q
+        s.d1 = stepper.elastic.d1.copy()
+        s.tangents = stepper.elastic.tangents.copy()
+        s.ref_twist = stepper.elastic.ref_twist.copy()
+        if res.iterations <= 4:
+            tau *= 4.0
+        # try the plain static problem from here
+        if tau > 1e3 * tau0 or res.iterations <= 2:
+            static_sys = _StepSystem(stepper, s, 1.0, fixed, load, static=True)
+            try:
+                fin = newton_solve(static_sys, s.q.copy(), stepper.settings.max_iterations, True)
+            except LinearSolveError:
+                continue
+            if fin.converged:
+                return static_sys, fin
+    return None

@@ -55,7 +55,9 @@ class SolverSettings:
     - ``dt``: target time step, s; ``dt_min``: smallest step before giving up (default ``dt/1024``);
     - ``max_iterations``: Newton iterations per attempt;
     - ``force_tol`` (N) and ``moment_tol`` (N m): residual tolerances; default
-      ``1e-6 EI/(L l)`` and that times the mean edge length ``l`` (smallest over rods);
+      ``1e-9 EI/l^2`` and that times the mean edge length ``l`` (smallest over rods); a step is
+      converged when the residual is below tolerance and the last Newton step below ``step_tol``
+      (or the residual below 1 % of tolerance);
     - ``step_tol`` (m): Newton step tolerance, default ``1e-6 l``; ``angle_tol`` (rad) likewise 1e-6;
     - ``grow_after``: consecutive easy steps (at most ``easy_iterations`` iterations) before the step
       doubles back towards ``dt``;
@@ -202,11 +204,10 @@ class Stepper:
         for r, rod in enumerate(m.rods):
             e0, e1 = m.rod_edge_start[r], m.rod_edge_start[r + 1]
             lmean = float(np.mean(m.rest_length[e0:e1]))
-            L = float(np.sum(m.rest_length[e0:e1]))
-            scales.append(rod.EI / (L * lmean))
+            scales.append(rod.EI / lmean**2)
             lens.append(lmean)
         st = self.settings
-        self.force_tol = st.force_tol if st.force_tol is not None else 1e-6 * min(scales)
+        self.force_tol = st.force_tol if st.force_tol is not None else 1e-9 * min(scales)
         lmin = min(lens)
         self.moment_tol = st.moment_tol if st.moment_tol is not None else self.force_tol * lmin
         self.step_tol = st.step_tol if st.step_tol is not None else 1e-6 * lmin
