@@ -1,7 +1,7 @@
 """Linear solvers for Newton's system ``J dq = -r``.
 
-- :class:`BandedSolver`: LAPACK ``dgbsv`` on banded storage (rods without contact): measured
-  fastest for a single rod (see ``docs/performance.md``).
+- :class:`BandedSolver`: banded LDL^T (numba) or LAPACK ``dgbsv`` on banded storage (rods without
+  contact): measured fastest for a single rod (see ``docs/performance.md``).
 - :class:`SparseSolver`: sparse LU for general patterns (contact couplings, closed rods). It uses
   knotsim's fixed-pattern LU when available (ordering and symbolic analysis reused while the
   pattern is unchanged) and falls back to ``scipy.sparse.linalg.splu`` with
@@ -16,6 +16,7 @@ from scipy.linalg import lapack
 from scipy.sparse.linalg import splu
 
 from knotsim.errors import KnotsimError
+from knotsim.solver.banded import ldlt_banded_solve
 
 
 class LinearSolveError(KnotsimError, ArithmeticError):
@@ -23,9 +24,21 @@ class LinearSolveError(KnotsimError, ArithmeticError):
 
 
 class BandedSolver:
-    def solve(self, ab: np.ndarray, kl: int, ku: int, rhs: np.ndarray) -> np.ndarray:
-        """Solve with ``ab`` in ``gbsv`` storage (shape ``(2 kl + ku + 1, n)``; overwritten)."""
-        lu, piv, x, info = lapack.dgbsv(kl, ku, ab, rhs, overwrite_ab=1, overwrite_b=0)
+    """Banded solve: symmetric LDL^T without pivoting (numba) when the matrix is symmetric, with
+    LAPACK ``dgbsv`` (partial pivoting) as fallback and for non-symmetric matrices."""
+
+    def __init__(self):
+        self.fallbacks = 0
+
+    def solve(self, ab: np.ndarray, kl: int, ku: int, rhs: np.ndarray, symmetric: bool = False) -> np.ndarray:
+        """Solve with ``ab`` in ``gbsv`` storage (shape ``(2 kl + ku + 1, n)``, preferably
+        Fortran-ordered); ``ab`` is left unchanged."""
+        if symmetric and kl == ku:
+            x = np.empty_like(rhs)
+            if ldlt_banded_solve(ab, kl + ku, kl, rhs, x):
+                return x
+            self.fallbacks += 1
+        lu, piv, x, info = lapack.dgbsv(kl, ku, np.array(ab, order="F"), rhs, overwrite_ab=1, overwrite_b=0)
         if info != 0:
             raise LinearSolveError(f"banded LU failed (LAPACK info={info}): singular Newton matrix")
         return x

@@ -9,6 +9,7 @@ plug in through a small protocol (see :class:`Interaction`).
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -140,6 +141,7 @@ class _StepSystem:
     def residual(self, q: np.ndarray, want_jacobian: bool) -> np.ndarray:
         s = self.s
         el = s.elastic
+        t0 = time.perf_counter()
         e_el = el.evaluate(q, self.source, want_jacobian)
         r = el.grad.copy()
         r -= self.f_ext
@@ -160,14 +162,20 @@ class _StepSystem:
             inter_blocks.append(blocks)
         self.merit = merit
         self.energies["elastic"] = e_el
+        s.timers["forces"] += time.perf_counter() - t0
         self.last_full_residual = r.copy()
         r[self.fixed] = 0.0
         if want_jacobian:
+            t1 = time.perf_counter()
             s._assemble(self.diag, inter_blocks, self.fixed)
+            s.timers["assembly"] += time.perf_counter() - t1
         return r
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
-        return self.s._solve(rhs)
+        t0 = time.perf_counter()
+        out = self.s._solve(rhs)
+        self.s.timers["linear_solve"] += time.perf_counter() - t0
+        return out
 
     def residual_norm(self, r: np.ndarray) -> float:
         m = self.s.model
@@ -220,6 +228,8 @@ class Stepper:
         self._pattern_id = 0
         self._bend_twist = np.zeros((m.n_bend, 11, 11))
         self.last_solver = ""
+        #: Accumulated wall time (s) in force/energy evaluation, Jacobian assembly and linear solves.
+        self.timers = {"forces": 0.0, "assembly": 0.0, "linear_solve": 0.0}
 
     # -- assembly -------------------------------------------------------------------------
     def _use_banded(self, inter_dofs) -> bool:
@@ -240,7 +250,7 @@ class Stepper:
         if self._use_banded(inter_dofs):
             bw = max([self._elastic_bw] + [asm.bandwidth([d]) for d in inter_dofs])
             kl = ku = max(bw, 1)
-            ab = np.zeros((2 * kl + ku + 1, n))
+            ab = np.zeros((n, 2 * kl + ku + 1)).T  # Fortran order: columns contiguous
             row0 = kl + ku
             asm.banded_add_diagonal(ab, row0, diag)
             asm.banded_add_blocks(ab, row0, m.stretch_dofs, el.stretch_hess)
@@ -249,7 +259,8 @@ class Stepper:
                 if blocks is not None and dofs.size:
                     asm.banded_add_blocks(ab, row0, dofs, blocks)
             asm.banded_constrain(ab, row0, kl, ku, fixed)
-            self._system = ("banded", ab, kl, ku)
+            symmetric = all(b is None or d.size == 0 for d, b in zip(inter_dofs, inter_blocks, strict=True))
+            self._system = ("banded", ab, kl, ku, symmetric)
             self.last_solver = "banded"
             return
         key = tuple((d.shape, hash(d.tobytes())) for d in inter_dofs)
@@ -275,8 +286,8 @@ class Stepper:
 
     def _solve(self, rhs: np.ndarray) -> np.ndarray:
         if self._system[0] == "banded":
-            _, ab, kl, ku = self._system
-            return self._banded.solve(ab.copy(), kl, ku, rhs)
+            _, ab, kl, ku, symmetric = self._system
+            return self._banded.solve(ab, kl, ku, rhs, symmetric)
         return self._sparse.solve(self.model.n_dofs, self._indptr, self._indices, self._system[1], rhs,
                                   self._pattern_id)
 

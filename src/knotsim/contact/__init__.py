@@ -1,0 +1,1 @@
+"""Contact between rod edges: broad phase, edge-edge distance, IMC contact potential, smooth friction."""

@@ -1,0 +1,151 @@
+"""Smooth Coulomb friction of one contact pair, fully implicit (Tong, Choi, Joo, Jawed 2022).
+
+Physics-notes section 3 with its errata applied. For edge i (nodes ``x0, x1``) and edge j
+(nodes ``x2, x3``), all evaluated at the Newton iterate ``p`` with velocities
+``v = (p − p_prev)/dt`` (m/s):
+
+* normal force magnitudes ``F_n,a = |F_c,a|`` (N) from the contact force on each node;
+* contact normal ``n = (F_c,0 + F_c,1) / |F_c,0 + F_c,1|`` (points from edge j towards edge i);
+* contact-point velocities ``v_i^e = (1 − β_i) v_0 + β_i v_1``, ``v_j^e = (1 − β_j) v_2 + β_j v_3``;
+* relative velocity ``v_rel = v_i^e − v_j^e``, tangential part ``v_T = v_rel − (v_rel·n) n``;
+* ``γ(s) = 2/(1 + exp(−K2 s)) − 1 = tanh(K2 s/2)``, ``K2 = 15/ν``;
+* friction on node ``a`` of edge i: ``−μ γ(|v_T|) v̂_T F_n,a``; on node ``a`` of edge j:
+  ``+μ γ(|v_T|) v̂_T F_n,a``.
+
+``γ v̂_T`` is written ``φ(|v_T|) v_T`` with ``φ(s) = tanh(K2 s/2)/s`` (s/m), smooth and even in
+``s`` (a Taylor series is used for ``K2 s/2 < 0.02``), so the force and its Jacobian are smooth at
+``v_T = 0``: there the force is zero and the Jacobian is ``−μ (K2/2) F_n,a ∂v_T/∂p`` (viscous-like
+sticking).
+
+The Jacobian ``∂F_fr/∂p`` (N/m, ``p_prev`` and ``dt`` fixed) includes the dependence through the
+velocities, through the contact ratios (``∂β/∂p``), through the normal ``n`` and the magnitudes
+``F_n,a`` (chain rule through ``∂F_c/∂p``). Where a node force is exactly zero its magnitude has no
+derivative; the zero subgradient is used. If ``|F_c,0 + F_c,1| <= TINY_FORCE`` the friction and
+its Jacobian are zero (no normal direction; the friction, being proportional to the normal force,
+tends to zero there anyway — for IMC forces ``|F_c,0 + F_c,1| = F_n,0 + F_n,1``).
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from knotsim import _vec3 as v3
+
+#: K2 = FRICTION_SHARPNESS / ν.
+FRICTION_SHARPNESS = 15.0
+#: Below this |F_c,0 + F_c,1| (N) the pair carries no friction.
+TINY_FORCE = 1e-300
+_SERIES_X = 0.02
+
+
+@njit(cache=True)
+def slip_functions(s, nu):
+    """Smooth stick-slip switch for a tangential speed ``s >= 0`` (m/s), slip tolerance ``nu`` (m/s).
+
+    Returns ``(gamma, phi, psi)``: ``γ(s) = tanh(K2 s/2)`` (dimensionless), ``φ(s) = γ(s)/s`` (s/m;
+    ``K2/2`` at ``s = 0``) and ``ψ(s) = φ'(s)/s`` (s³/m³; ``−(2/3)(K2/2)³`` at ``s = 0``).
+    """
+    k = 0.5 * FRICTION_SHARPNESS / nu
+    x = k * s
+    if x < _SERIES_X:
+        x2 = x * x
+        t = 1.0 + x2 * (-1.0 / 3.0 + x2 * (2.0 / 15.0 + x2 * (-17.0 / 315.0 + x2 * (62.0 / 2835.0))))
+        tp = -2.0 / 3.0 + x2 * (
+            8.0 / 15.0 + x2 * (-34.0 / 105.0 + x2 * (496.0 / 2835.0 - x2 * (2764.0 / 31185.0)))
+        )
+        return x * t, k * t, k * k * k * tp
+    th = math.tanh(x)
+    em = math.exp(-2.0 * x)
+    sech2 = 4.0 * em / ((1.0 + em) * (1.0 + em))
+    return th, th / s, k * k * k * (x * sech2 - th) / (x * x * x)
+
+
+@njit(cache=True)
+def friction_pair(p, p_prev, dt, mu, nu, fc, dfc, beta_i, beta_j, dbeta_i, dbeta_j, force_out, jac_out):
+    """Friction force on the 4 nodes of a contact pair and its exact Jacobian.
+
+    Parameters
+    ----------
+    p : (12,) float64, node positions ``x0, x1`` (edge i), ``x2, x3`` (edge j) at the iterate (m).
+    p_prev : (12,) float64, the same nodes at the start of the step (m).
+    dt : time step (s).
+    mu : friction coefficient (dimensionless).
+    nu : slip tolerance ν (m/s), ``K2 = 15/ν``.
+    fc : (12,) float64, contact force on the 4 nodes at ``p`` (N), ``−k_c ∇E``.
+    dfc : (12, 12) float64, its Jacobian ``∂fc/∂p`` (N/m), ``−k_c ∇²E``.
+    beta_i, beta_j : contact ratios at ``p``.
+    dbeta_i, dbeta_j : (12,) float64, ``∂β/∂p`` (1/m) for the active case.
+    force_out : (12,) float64 output, friction force (N).
+    jac_out : (12, 12) float64 output, ``∂force_out/∂p`` (N/m) at fixed ``p_prev``, ``dt``.
+    """
+    for r in range(12):
+        force_out[r] = 0.0
+        for m in range(12):
+            jac_out[r, m] = 0.0
+    f0 = v3.load(fc, 0)
+    f1 = v3.load(fc, 3)
+    f2 = v3.load(fc, 6)
+    f3 = v3.load(fc, 9)
+    S = v3.add(f0, f1)
+    sn = v3.norm(S)
+    if not sn > TINY_FORCE:
+        return
+    n = v3.scale(1.0 / sn, S)
+    fn = (v3.norm(f0), v3.norm(f1), v3.norm(f2), v3.norm(f3))
+    idt = 1.0 / dt
+    v0 = v3.scale(idt, v3.sub(v3.load(p, 0), v3.load(p_prev, 0)))
+    v1 = v3.scale(idt, v3.sub(v3.load(p, 3), v3.load(p_prev, 3)))
+    v2 = v3.scale(idt, v3.sub(v3.load(p, 6), v3.load(p_prev, 6)))
+    v3_ = v3.scale(idt, v3.sub(v3.load(p, 9), v3.load(p_prev, 9)))
+    vi = v3.add(v3.scale(1.0 - beta_i, v0), v3.scale(beta_i, v1))
+    vj = v3.add(v3.scale(1.0 - beta_j, v2), v3.scale(beta_j, v3_))
+    vrel = v3.sub(vi, vj)
+    vn = v3.dot(vrel, n)
+    vT = v3.axpy(-vn, n, vrel)
+    s = v3.norm(vT)
+    _, phi, psi = slip_functions(s, nu)
+    w = v3.scale(mu * phi, vT)
+    sgn = (1.0, 1.0, -1.0, -1.0)
+    c = (1.0 - beta_i, beta_i, -(1.0 - beta_j), -beta_j)
+    for a in range(4):
+        for r in range(3):
+            force_out[3 * a + r] = -sgn[a] * fn[a] * w[r]
+    # unit node-force directions (zero subgradient for a zero node force)
+    fh = (
+        v3.scale(1.0 / fn[0] if fn[0] > 0.0 else 0.0, f0),
+        v3.scale(1.0 / fn[1] if fn[1] > 0.0 else 0.0, f1),
+        v3.scale(1.0 / fn[2] if fn[2] > 0.0 else 0.0, f2),
+        v3.scale(1.0 / fn[3] if fn[3] > 0.0 else 0.0, f3),
+    )
+    dvi = v3.sub(v1, v0)  # d v_i^e / d beta_i
+    dvj = v3.sub(v3_, v2)  # d v_j^e / d beta_j
+    isn = 1.0 / sn
+    for m in range(12):
+        b = m // 3
+        kk = m - 3 * b
+        cb = c[b] * idt
+        # d v_rel / d p_m
+        dvrel = (
+            cb if kk == 0 else 0.0,
+            cb if kk == 1 else 0.0,
+            cb if kk == 2 else 0.0,
+        )
+        dvrel = v3.add(dvrel, v3.sub(v3.scale(dbeta_i[m], dvi), v3.scale(dbeta_j[m], dvj)))
+        # d n / d p_m = (I - n n^T) dS / |S|
+        dS = (dfc[0, m] + dfc[3, m], dfc[1, m] + dfc[4, m], dfc[2, m] + dfc[5, m])
+        dn = v3.scale(isn, v3.axpy(-v3.dot(n, dS), n, dS))
+        # d vT = (I - n n^T) dvrel - n (vrel . dn) - (vrel . n) dn
+        dvT = v3.axpy(-v3.dot(n, dvrel), n, dvrel)
+        dvT = v3.axpy(-v3.dot(vrel, dn), n, dvT)
+        dvT = v3.axpy(-vn, dn, dvT)
+        # d w = mu (phi dvT + psi vT (vT . dvT))
+        dw = v3.scale(mu, v3.axpy(psi * v3.dot(vT, dvT), vT, v3.scale(phi, dvT)))
+        for a in range(4):
+            fha = fh[a]
+            dfn = fha[0] * dfc[3 * a, m] + fha[1] * dfc[3 * a + 1, m] + fha[2] * dfc[3 * a + 2, m]
+            sa = -sgn[a]
+            jac_out[3 * a, m] = sa * (w[0] * dfn + fn[a] * dw[0])
+            jac_out[3 * a + 1, m] = sa * (w[1] * dfn + fn[a] * dw[1])
+            jac_out[3 * a + 2, m] = sa * (w[2] * dfn + fn[a] * dw[2])
