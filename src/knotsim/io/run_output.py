@@ -10,7 +10,6 @@
 from __future__ import annotations
 
 import json
-import os
 import platform
 import time as _time
 from pathlib import Path

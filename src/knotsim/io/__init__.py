@@ -1,0 +1,1 @@
+"""Input and output: configuration (TOML), trajectories (HDF5), logs (parquet) and VTK export."""

@@ -1,0 +1,546 @@
+"""Trajectory files (``trajectory.h5``): writing frames as a run goes, and reading them back.
+
+File layout (see ``docs/architecture.md``, section "Trajectory file"):
+
+- ``time``: ``(T,)`` float64, s.
+- ``positions``: ``(T, n_nodes_total, 3)`` float64, m, chunked along T.
+- ``edge_angles``: ``(T, n_edges_total)`` float64, rad.
+- ``rod_node_start``: ``(n_rods+1,)`` int64; rod ``r`` owns global nodes
+  ``rod_node_start[r]:rod_node_start[r+1]``.
+- ``rod_edge_start``: ``(n_rods+1,)`` int64, likewise for edges.
+- ``rod_closed``: ``(n_rods,)`` bool; ``rod_radius``: ``(n_rods,)`` float64, m.
+- attributes ``rod_names`` (list of str), ``knotsim_version``, ``created`` (ISO 8601, UTC) and
+  ``format = "knotsim-trajectory"``.
+
+The writer appends one frame at a time to resizable, chunked datasets and flushes the file after
+every ``flush_every`` frames, so that a run that is killed leaves a file readable up to its last
+flushed frame. Within a frame ``positions`` and ``edge_angles`` are written before ``time``; the
+reader keeps only frames whose three datasets all exist and whose time is finite.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from knotsim.errors import ConfigError
+
+__all__ = ["FORMAT_NAME", "Trajectory", "TrajectoryWriter", "read_trajectory"]
+
+FORMAT_NAME = "knotsim-trajectory"
+_REQUIRED = (
+    "time",
+    "positions",
+    "edge_angles",
+    "rod_node_start",
+    "rod_edge_start",
+    "rod_closed",
+    "rod_radius",
+)
+
+
+def _validate_layout(
+    rod_node_start: Any, rod_edge_start: Any, rod_closed: Any, rod_radius: Any, rod_names: Any
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """Check and normalise the rod layout arrays; raise :class:`ConfigError` when inconsistent."""
+    node_start = np.asarray(rod_node_start, dtype=np.int64).reshape(-1)
+    edge_start = np.asarray(rod_edge_start, dtype=np.int64).reshape(-1)
+    closed = np.asarray(rod_closed, dtype=bool).reshape(-1)
+    radius = np.asarray(rod_radius, dtype=np.float64).reshape(-1)
+    n_rods = node_start.size - 1
+    if n_rods < 1:
+        raise ConfigError("rod_node_start", f"needs n_rods+1 >= 2 entries, got {node_start.size}")
+    if node_start[0] != 0 or np.any(np.diff(node_start) < 2):
+        raise ConfigError(
+            "rod_node_start",
+            f"must start at 0 and increase by at least 2 nodes per rod, got {node_start.tolist()}",
+        )
+    if edge_start.shape != node_start.shape or edge_start[0] != 0:
+        raise ConfigError(
+            "rod_edge_start", f"must have {n_rods + 1} entries starting at 0, got {edge_start.tolist()}"
+        )
+    if closed.shape != (n_rods,):
+        raise ConfigError("rod_closed", f"must have {n_rods} entries, got {closed.size}")
+    if radius.shape != (n_rods,) or not np.all(np.isfinite(radius)) or np.any(radius <= 0):
+        raise ConfigError("rod_radius", f"must be {n_rods} positive finite radii (m), got {radius.tolist()}")
+    n_nodes = np.diff(node_start)
+    expected_edges = np.where(closed, n_nodes, n_nodes - 1)
+    if not np.array_equal(np.diff(edge_start), expected_edges):
+        raise ConfigError(
+            "rod_edge_start",
+            f"edge counts {np.diff(edge_start).tolist()} do not match node counts {n_nodes.tolist()} "
+            f"(an open rod with N nodes has N-1 edges, a closed one N)",
+        )
+    if rod_names is None:
+        names = [f"rod{r}" for r in range(n_rods)]
+    else:
+        names = [str(s) for s in rod_names]
+        if len(names) != n_rods:
+            raise ConfigError("rod_names", f"must have {n_rods} names, got {len(names)}")
+    return node_start, edge_start, closed, radius, names
+
+
+class TrajectoryWriter:
+    """Append frames of a run to an HDF5 trajectory file.
+
+    Use as a context manager::
+
+        with TrajectoryWriter(path, rod_node_start, rod_edge_start, rod_closed, rod_radius,
+                              rod_names) as writer:
+            for t, positions, edge_angles in frames:
+                writer.append(t, positions, edge_angles)
+
+    Parameters
+    ----------
+    path:
+        File to create (an existing file is overwritten).
+    rod_node_start, rod_edge_start:
+        ``(n_rods+1,)`` int, global node / edge numbers where each rod starts (last entry = totals).
+    rod_closed:
+        ``(n_rods,)`` bool, whether each rod is a ring.
+    rod_radius:
+        ``(n_rods,)`` float, rod radii (m).
+    rod_names:
+        ``n_rods`` names (``None``: ``rod0, rod1, ...``).
+    chunk_frames:
+        Number of frames per HDF5 chunk along the time axis.
+    flush_every:
+        Flush the file to disk after this many appended frames (1: after each frame). A killed run
+        leaves a file readable up to its last flushed frame.
+    compression:
+        Optional h5py compression filter for ``positions`` and ``edge_angles`` (e.g. ``"gzip"``).
+    attrs:
+        Extra file attributes (str, numbers or arrays), e.g. a run's configuration as TOML text.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        rod_node_start: Sequence[int] | np.ndarray,
+        rod_edge_start: Sequence[int] | np.ndarray,
+        rod_closed: Sequence[bool] | np.ndarray,
+        rod_radius: Sequence[float] | np.ndarray,
+        rod_names: Sequence[str] | None = None,
+        chunk_frames: int = 64,
+        *,
+        flush_every: int = 1,
+        compression: str | None = None,
+        attrs: dict[str, Any] | None = None,
+    ):
+        node_start, edge_start, closed, radius, names = _validate_layout(
+            rod_node_start, rod_edge_start, rod_closed, rod_radius, rod_names
+        )
+        if int(chunk_frames) < 1:
+            raise ConfigError("chunk_frames", f"must be >= 1, got {chunk_frames}")
+        if int(flush_every) < 1:
+            raise ConfigError("flush_every", f"must be >= 1, got {flush_every}")
+        self.path = Path(path)
+        self.n_nodes = int(node_start[-1])
+        self.n_edges = int(edge_start[-1])
+        self.flush_every = int(flush_every)
+        self._n_frames = 0
+        self._unflushed = 0
+        self._last_time = -np.inf
+
+        from knotsim import __version__
+
+        cf = int(chunk_frames)
+        f = h5py.File(self.path, "w")
+        try:
+            f.attrs["format"] = FORMAT_NAME
+            f.attrs["knotsim_version"] = __version__
+            f.attrs["created"] = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
+            f.attrs["rod_names"] = np.array(names, dtype=h5py.string_dtype())
+            for key, value in (attrs or {}).items():
+                f.attrs[key] = value
+            f.create_dataset("rod_node_start", data=node_start)
+            f.create_dataset("rod_edge_start", data=edge_start)
+            f.create_dataset("rod_closed", data=closed)
+            f.create_dataset("rod_radius", data=radius)
+            self._positions = f.create_dataset(
+                "positions",
+                shape=(0, self.n_nodes, 3),
+                maxshape=(None, self.n_nodes, 3),
+                chunks=(cf, self.n_nodes, 3),
+                dtype=np.float64,
+                fillvalue=np.nan,
+                compression=compression,
+            )
+            self._edge_angles = f.create_dataset(
+                "edge_angles",
+                shape=(0, self.n_edges),
+                maxshape=(None, self.n_edges),
+                chunks=(cf, self.n_edges),
+                dtype=np.float64,
+                fillvalue=np.nan,
+                compression=compression,
+            )
+            self._time = f.create_dataset(
+                "time",
+                shape=(0,),
+                maxshape=(None,),
+                chunks=(max(cf, 256),),
+                dtype=np.float64,
+                fillvalue=np.nan,
+            )
+            f.flush()
+        except BaseException:
+            f.close()
+            raise
+        self._file: h5py.File | None = f
+
+    # ------------------------------------------------------------------ context manager
+    def __enter__(self) -> TrajectoryWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def n_frames(self) -> int:
+        """Number of frames appended so far."""
+        return self._n_frames
+
+    @property
+    def closed(self) -> bool:
+        """True once :meth:`close` was called."""
+        return self._file is None
+
+    def append(self, time: float, positions: np.ndarray, edge_angles: np.ndarray) -> int:
+        """Append one frame and return its index.
+
+        Parameters
+        ----------
+        time:
+            Simulation time (s); must not decrease from one frame to the next.
+        positions:
+            ``(n_nodes_total, 3)`` node positions (m), or the same flattened.
+        edge_angles:
+            ``(n_edges_total,)`` edge twist angles (rad).
+        """
+        if self._file is None:
+            raise ConfigError("TrajectoryWriter", f"append() after close() on {self.path}")
+        t = float(time)
+        if not np.isfinite(t) or t < self._last_time:
+            raise ConfigError("time", f"must be finite and non-decreasing, got {t} after {self._last_time}")
+        x = np.asarray(positions, dtype=np.float64)
+        if x.size != 3 * self.n_nodes:
+            raise ConfigError("positions", f"expected shape ({self.n_nodes}, 3), got {x.shape}")
+        th = np.asarray(edge_angles, dtype=np.float64).reshape(-1)
+        if th.size != self.n_edges:
+            raise ConfigError("edge_angles", f"expected shape ({self.n_edges},), got {th.shape}")
+        k = self._n_frames
+        # positions and angles first, time last: a frame counts once its time is written.
+        self._positions.resize(k + 1, axis=0)
+        self._positions[k] = x.reshape(self.n_nodes, 3)
+        self._edge_angles.resize(k + 1, axis=0)
+        self._edge_angles[k] = th
+        self._time.resize(k + 1, axis=0)
+        self._time[k] = t
+        self._n_frames = k + 1
+        self._last_time = t
+        self._unflushed += 1
+        if self._unflushed >= self.flush_every:
+            self.flush()
+        return k
+
+    def flush(self) -> None:
+        """Write buffered frames and metadata to disk."""
+        if self._file is not None:
+            self._file.flush()
+            self._unflushed = 0
+
+    def close(self) -> None:
+        """Flush and close the file (idempotent)."""
+        if self._file is not None:
+            self._file.flush()
+            self._file.close()
+            self._file = None
+
+
+class _LazyFrames:
+    """Read-only view of a frame-major HDF5 dataset restricted to selected frames.
+
+    Indexing with ``[i]``, ``[i, ...]``, slices or integer arrays on the first axis reads only
+    the requested frames from disk; ``np.asarray(view)`` reads all selected frames.
+    """
+
+    def __init__(self, dataset: h5py.Dataset, frame_indices: np.ndarray):
+        self._ds = dataset
+        self._idx = frame_indices
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return (self._idx.size, *self._ds.shape[1:])
+
+    @property
+    def dtype(self) -> np.dtype:
+        return self._ds.dtype
+
+    @property
+    def ndim(self) -> int:
+        return self._ds.ndim
+
+    def __len__(self) -> int:
+        return int(self._idx.size)
+
+    def __getitem__(self, key: Any) -> np.ndarray:
+        first, rest = (key[0], key[1:]) if isinstance(key, tuple) else (key, ())
+        sel = self._idx[first]
+        if np.ndim(sel) == 0:
+            return self._ds[(int(sel), *rest)]
+        sel = np.asarray(sel, dtype=np.int64)
+        if sel.size == 0:
+            return np.empty((0, *self._ds.shape[1:]), dtype=self._ds.dtype)[(slice(None), *rest)]
+        # h5py fancy indexing needs increasing, unique indices
+        uniq, inverse = np.unique(sel, return_inverse=True)
+        if uniq[-1] - uniq[0] + 1 == uniq.size:  # contiguous: one hyperslab read
+            data = self._ds[int(uniq[0]) : int(uniq[-1]) + 1]
+        else:
+            data = self._ds[uniq.tolist()]
+        return data[inverse][(slice(None), *rest)]
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        out = self[:]
+        return out if dtype is None else out.astype(dtype)
+
+
+@dataclass
+class Trajectory:
+    """A trajectory read from ``trajectory.h5``.
+
+    Attributes
+    ----------
+    time:
+        ``(T,)`` float64, simulation time of each loaded frame (s).
+    positions:
+        ``(T, n_nodes, 3)`` float64 node positions (m); an ndarray, or a lazy view reading from
+        disk on indexing when loaded with ``lazy=True``.
+    edge_angles:
+        ``(T, n_edges)`` float64 edge twist angles (rad); ndarray or lazy view as ``positions``.
+    rod_node_start, rod_edge_start:
+        ``(n_rods+1,)`` int64 global node / edge offsets of each rod.
+    rod_closed:
+        ``(n_rods,)`` bool.
+    rod_radius:
+        ``(n_rods,)`` float64 radii (m).
+    rod_names:
+        ``n_rods`` names.
+    frame_indices:
+        ``(T,)`` int64, index in the file of each loaded frame (loaded frame ``i`` is file frame
+        ``frame_indices[i]``).
+    attrs:
+        File attributes (``knotsim_version``, ``created``, and any extra ones).
+    path:
+        The file that was read.
+    """
+
+    time: np.ndarray
+    positions: Any
+    edge_angles: Any
+    rod_node_start: np.ndarray
+    rod_edge_start: np.ndarray
+    rod_closed: np.ndarray
+    rod_radius: np.ndarray
+    rod_names: list[str]
+    frame_indices: np.ndarray
+    attrs: dict[str, Any] = field(default_factory=dict)
+    path: Path | None = None
+    _file: h5py.File | None = field(default=None, repr=False)
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    def n_frames(self) -> int:
+        """Number of loaded frames ``T``."""
+        return int(self.time.size)
+
+    @property
+    def n_rods(self) -> int:
+        return int(self.rod_node_start.size - 1)
+
+    @property
+    def n_nodes(self) -> int:
+        """Total number of nodes over all rods."""
+        return int(self.rod_node_start[-1])
+
+    @property
+    def n_edges(self) -> int:
+        """Total number of edges over all rods."""
+        return int(self.rod_edge_start[-1])
+
+    # ------------------------------------------------------------------ access
+    def rod_index(self, rod: int | str) -> int:
+        """Index of a rod given by index (negative allowed) or by name."""
+        if isinstance(rod, str):
+            try:
+                return self.rod_names.index(rod)
+            except ValueError:
+                raise ConfigError("rod", f"no rod named {rod!r}; rods are {self.rod_names}") from None
+        r = int(rod)
+        if not -self.n_rods <= r < self.n_rods:
+            raise ConfigError("rod", f"index {r} out of range for {self.n_rods} rods")
+        return r % self.n_rods
+
+    def _frame(self, frame: int) -> int:
+        i = int(frame)
+        if not -self.n_frames <= i < self.n_frames:
+            raise ConfigError("frame", f"index {i} out of range for {self.n_frames} loaded frames")
+        return i % self.n_frames
+
+    def rod_positions(self, frame: int, rod: int | str) -> np.ndarray:
+        """``(N_r, 3)`` node positions (m) of rod ``rod`` (index or name) at loaded frame ``frame``."""
+        r = self.rod_index(rod)
+        a, b = int(self.rod_node_start[r]), int(self.rod_node_start[r + 1])
+        return np.asarray(self.positions[self._frame(frame), a:b], dtype=np.float64)
+
+    def rod_edge_angles(self, frame: int, rod: int | str) -> np.ndarray:
+        """``(E_r,)`` edge twist angles (rad) of rod ``rod`` at loaded frame ``frame``."""
+        r = self.rod_index(rod)
+        a, b = int(self.rod_edge_start[r]), int(self.rod_edge_start[r + 1])
+        return np.asarray(self.edge_angles[self._frame(frame), a:b], dtype=np.float64)
+
+    def centerlines(self, frame: int) -> list[np.ndarray]:
+        """List of ``(N_r, 3)`` node positions (m) of every rod at loaded frame ``frame``."""
+        x = np.asarray(self.positions[self._frame(frame)], dtype=np.float64)
+        s = self.rod_node_start
+        return [x[s[r] : s[r + 1]].copy() for r in range(self.n_rods)]
+
+    def frame_at_time(self, t: float) -> int:
+        """Index of the loaded frame whose time is nearest to ``t`` (s).
+
+        Times before the first (after the last) frame give the first (last) frame; on a tie the
+        earlier frame is returned.
+        """
+        t = float(t)
+        if not np.isfinite(t):
+            raise ConfigError("t", f"must be finite, got {t}")
+        if self.n_frames == 0:
+            raise ConfigError("frame_at_time", "the trajectory has no frames")
+        i = int(np.searchsorted(self.time, t, side="left"))
+        if i <= 0:
+            return 0
+        if i >= self.n_frames:
+            return self.n_frames - 1
+        return i - 1 if t - self.time[i - 1] <= self.time[i] - t else i
+
+    # ------------------------------------------------------------------ lifetime
+    def close(self) -> None:
+        """Close the underlying file of a lazily loaded trajectory (no-op otherwise)."""
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+    def __enter__(self) -> Trajectory:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _select_frames(frames: Any, n: int) -> np.ndarray:
+    """File frame indices selected by ``frames`` (None, int, slice or sequence of ints)."""
+    if frames is None:
+        return np.arange(n, dtype=np.int64)
+    if isinstance(frames, slice):
+        return np.arange(n, dtype=np.int64)[frames]
+    if isinstance(frames, str):
+        raise ConfigError("frames", f"must be None, an int, a slice or a sequence of ints, got {frames!r}")
+    sel = np.asarray(frames)
+    if sel.dtype == bool or (sel.size and not np.issubdtype(sel.dtype, np.integer)):
+        raise ConfigError("frames", f"must be None, an int, a slice or a sequence of ints, got {frames!r}")
+    sel = sel.astype(np.int64).reshape(-1)
+    bad = (sel < -n) | (sel >= n)
+    if np.any(bad):
+        raise ConfigError("frames", f"indices {sel[bad].tolist()} out of range for {n} frames in the file")
+    return sel % n if n else sel
+
+
+def read_trajectory(path: str | os.PathLike, frames: Any = None, *, lazy: bool = False) -> Trajectory:
+    """Read a trajectory file written by :class:`TrajectoryWriter`.
+
+    Parameters
+    ----------
+    path:
+        The ``trajectory.h5`` file.
+    frames:
+        Which frames to load: ``None`` (all), an int (negative counts from the end), a slice, or a
+        sequence of ints. Indices refer to frames in the file.
+    lazy:
+        If true, ``positions`` and ``edge_angles`` are not read now but on indexing, and the file
+        stays open until :meth:`Trajectory.close` (or the end of a ``with`` block).
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ConfigError
+        If the file is not HDF5 or not a knotsim trajectory, or ``frames`` is invalid.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"trajectory file not found: {path}")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise ConfigError("trajectory", f"{path} is not a readable HDF5 file ({exc})") from exc
+    try:
+        missing = [k for k in _REQUIRED if k not in f]
+        if missing:
+            raise ConfigError(
+                "trajectory", f"{path} is not a knotsim trajectory (missing datasets {missing})"
+            )
+        node_start, edge_start, closed, radius, names = _validate_layout(
+            f["rod_node_start"][()],
+            f["rod_edge_start"][()],
+            f["rod_closed"][()],
+            f["rod_radius"][()],
+            [s.decode() if isinstance(s, bytes) else str(s) for s in f.attrs.get("rod_names", [])] or None,
+        )
+        pos_ds, ang_ds, time_ds = f["positions"], f["edge_angles"], f["time"]
+        if pos_ds.ndim != 3 or pos_ds.shape[1:] != (node_start[-1], 3):
+            raise ConfigError(
+                "trajectory", f"{path}: positions has shape {pos_ds.shape}, expected (T, {node_start[-1]}, 3)"
+            )
+        if ang_ds.ndim != 2 or ang_ds.shape[1] != edge_start[-1]:
+            raise ConfigError(
+                "trajectory", f"{path}: edge_angles has shape {ang_ds.shape}, expected (T, {edge_start[-1]})"
+            )
+        n = min(time_ds.shape[0], pos_ds.shape[0], ang_ds.shape[0])
+        all_time = np.asarray(time_ds[:n], dtype=np.float64)
+        finite = np.isfinite(all_time)
+        if not np.all(finite):  # a run killed mid-frame: keep the complete prefix
+            n = int(np.argmin(finite))
+            all_time = all_time[:n]
+        sel = _select_frames(frames, n)
+        attrs = {
+            k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items() if k != "rod_names"
+        }
+        common = dict(
+            time=all_time[sel],
+            rod_node_start=node_start,
+            rod_edge_start=edge_start,
+            rod_closed=closed,
+            rod_radius=radius,
+            rod_names=names,
+            frame_indices=sel,
+            attrs=attrs,
+            path=path,
+        )
+        if lazy:
+            return Trajectory(
+                positions=_LazyFrames(pos_ds, sel), edge_angles=_LazyFrames(ang_ds, sel), _file=f, **common
+            )
+        positions = _LazyFrames(pos_ds, sel)[:]
+        edge_angles = _LazyFrames(ang_ds, sel)[:]
+    except BaseException:
+        f.close()
+        raise
+    f.close()
+    return Trajectory(positions=positions, edge_angles=edge_angles, **common)

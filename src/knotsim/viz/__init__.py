@@ -1,0 +1,1 @@
+"""Rendering of rods as shaded tubes (pyvista when installed, matplotlib otherwise) and animations."""
