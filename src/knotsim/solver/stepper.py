@@ -18,6 +18,7 @@ import numpy as np
 from knotsim.energies.elastic import ElasticEnergy, FrameSource
 from knotsim.errors import ConfigError
 from knotsim.solver import assembly as asm
+from knotsim.solver._kernels import implicit_residual, split_max_abs
 from knotsim.solver.linear import BandedSolver, LinearSolveError, SparseSolver
 from knotsim.solver.newton import newton_solve
 from knotsim.solver.state import State
@@ -130,6 +131,7 @@ class _StepSystem:
         self.last_full_residual = None
         self.energies = {}
         self.merit = float("nan")
+        self._r_full = np.zeros(stepper.model.n_dofs)
         m = stepper.model
         if static:
             self.diag = np.zeros(m.n_dofs)
@@ -143,28 +145,24 @@ class _StepSystem:
         el = s.elastic
         t0 = time.perf_counter()
         e_el = el.evaluate(q, self.source, want_jacobian)
-        r = el.grad.copy()
-        r -= self.f_ext
-        merit = e_el - float(np.dot(self.f_ext, q))
-        if not self.static:
-            dq = q - self.q_n
-            inert = dq - self.dt * self.v_n
-            r += s.model.mass * inert / self.dt**2
-            r += s.damping_coef * dq / self.dt
-            merit += 0.5 * float(np.dot(s.model.mass * inert, inert)) / self.dt**2
-            merit += 0.5 * float(np.dot(s.damping_coef * dq, dq)) / self.dt
+        r_full = self._r_full
+        r = np.empty_like(r_full)
+        merit = e_el + implicit_residual(el.grad, self.f_ext, q, self.q_n, self.v_n, s.model.mass,
+                                         s.damping_coef, self.dt, self.static, self.fixed, r_full, r)
         inter_blocks = []
         self.energies = dict(el.energies)
         for inter in s.interactions:
-            e, blocks = inter.evaluate(q, self.q_n, self.dt, r, want_jacobian)
+            e, blocks = inter.evaluate(q, self.q_n, self.dt, r_full, want_jacobian)
             self.energies[inter.name] = e
             merit += e
             inter_blocks.append(blocks)
         self.merit = merit
         self.energies["elastic"] = e_el
         s.timers["forces"] += time.perf_counter() - t0
-        self.last_full_residual = r.copy()
-        r[self.fixed] = 0.0
+        if s.interactions:
+            r[:] = r_full
+            r[self.fixed] = 0.0
+        self.last_full_residual = r_full
         if want_jacobian:
             t1 = time.perf_counter()
             s._assemble(self.diag, inter_blocks, self.fixed)
@@ -178,15 +176,11 @@ class _StepSystem:
         return out
 
     def residual_norm(self, r: np.ndarray) -> float:
-        m = self.s.model
-        rp = np.max(np.abs(r[m.position_mask])) if m.n_dofs else 0.0
-        rt = np.max(np.abs(r[m.theta_mask])) if m.n_edges else 0.0
+        rp, rt = split_max_abs(r, self.s.model.theta_mask)
         return max(rp / self.s.force_tol, rt / self.s.moment_tol)
 
     def step_norm(self, dq: np.ndarray) -> float:
-        m = self.s.model
-        sp_ = np.max(np.abs(dq[m.position_mask]))
-        st = np.max(np.abs(dq[m.theta_mask])) if m.n_edges else 0.0
+        sp_, st = split_max_abs(dq, self.s.model.theta_mask)
         return max(sp_ / self.s.step_tol, st / self.s.settings.angle_tol)
 
 
