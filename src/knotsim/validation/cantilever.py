@@ -5,7 +5,9 @@ clamped and straddles the wall, whose plane passes through the edge's midpoint. 
 of node 1 covers the Voronoi region starting at that midpoint, so the free span is exactly ``L``
 (``x_k = (k - 1/2) l``, ``l = L / (N - 3/2)``), and the discretisation error is second order. Gravity gives
 the load parameter ``alpha = rho A g L^3 / EI``. Static equilibrium is found by Newton with load
-continuation.
+continuation. The published tips are for an inextensible elastica; the rod's axial strain is about
+``alpha h^2 / (4 L^2)`` (1e-5 at alpha = 39.24 with the default h = 2 mm, L = 1 m), well below the
+tolerance.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from knotsim.solver.static import solve_static
 LARGE_DEFLECTION_TIP = {1.0: (0.99125, -0.12347), 10.0: (0.65635, -0.70020), 39.24: (0.28712, -0.89338)}
 
 
-def cantilever_model(n_nodes: int, alpha: float, length: float = 1.0, radius: float = 0.01,
+def cantilever_model(n_nodes: int, alpha: float, length: float = 1.0, radius: float = 0.002,
                      youngs_modulus: float = 1e7, density: float = 1000.0):
     """Model and boundary conditions; returns ``(model, bcs, weight_of_free_span)``."""
     l = length / (n_nodes - 1.5)
