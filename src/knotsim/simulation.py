@@ -137,6 +137,9 @@ class Simulation:
         except KeyboardInterrupt:
             outcome = "interrupted"
             raise
+        except Exception as exc:
+            outcome = f"failed: {type(exc).__name__}: {exc}"
+            raise
         finally:
             if bar is not None:
                 bar.close()

@@ -81,8 +81,10 @@ class BoundaryConditions:
     def _check_window(name: str, start: float, stop: float) -> tuple[float, float]:
         start = 0.0 if start is None else float(start)
         stop = math.inf if stop is None else float(stop)
-        if not (start >= 0.0) or math.isnan(stop) or stop <= start:
-            raise ConfigError(f"bc.{name}.stop", f"need 0 <= start < stop, got start={start}, stop={stop}")
+        if not (start >= 0.0) or not math.isfinite(start):
+            raise ConfigError(f"bc.{name}.start", f"must be a time >= 0 s, got {start}")
+        if math.isnan(stop) or stop <= start:
+            raise ConfigError(f"bc.{name}.stop", f"need start < stop, got start={start}, stop={stop}")
         return start, stop
 
     def _edges_within(self, nodes: np.ndarray) -> np.ndarray:

@@ -1,0 +1,272 @@
+"""The ``knotsim`` command.
+
+::
+
+    knotsim run CONFIG.toml -o OUTDIR [--duration S] [--quiet]
+    knotsim validate [CASE ...] [--quick] [--json-only]
+    knotsim export-vtk RUN_DIR -o DIR [--every N] [--ascii]
+    knotsim render RUN_DIR [--frames last|first|all|I,J,..] [-o DIR] [--view iso|top|front|ELEV,AZIM]
+    knotsim --version
+
+Exit codes: 0 success; 1 validation failures; 2 bad input (:class:`~knotsim.errors.ConfigError`,
+:class:`~knotsim.errors.GeometryError`, unknown names, usage errors); 3 the simulation failed
+(:class:`~knotsim.errors.SimulationError`). Errors are printed on stderr without a traceback.
+
+Adding a command: write a function decorated with ``@main.command()`` and ``@_exit_codes``; import
+heavy modules inside the function so that ``knotsim --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import json
+import math
+import time
+from pathlib import Path
+
+import click
+
+import knotsim
+from knotsim.errors import KnotsimError, SimulationError
+
+#: Exit codes.
+EXIT_FAILED_CHECKS = 1
+EXIT_BAD_INPUT = 2
+EXIT_SIMULATION = 3
+
+
+def _error(message: str, code: int):
+    """Print ``message`` on stderr and exit with ``code``."""
+    click.echo(f"error: {message}", err=True)
+    raise click.exceptions.Exit(code)
+
+
+def _exit_codes(func):
+    """Turn knotsim's errors into a one-line message on stderr and an exit code."""
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        try:
+            return func(*args, **kwargs)
+        except SimulationError as exc:
+            _error(f"simulation failed: {exc}", EXIT_SIMULATION)
+        except KnotsimError as exc:  # ConfigError, GeometryError, ...
+            _error(str(exc), EXIT_BAD_INPUT)
+        except FileNotFoundError as exc:
+            _error(str(exc), EXIT_BAD_INPUT)
+
+    return wrapper
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(knotsim.__version__, "--version", prog_name="knotsim")
+def main():
+    """knotsim: discrete elastic rods in frictional contact -- tie knots and measure their strength."""
+
+
+# ------------------------------------------------------------------------------------------ run
+@main.command()
+@click.argument("config", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Output directory (trajectory.h5, log.parquet, run.json).")
+@click.option("--duration", type=float, default=None, help="Simulated time in s (overrides run.duration).")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar and no summary.")
+@_exit_codes
+def run(config: Path, outdir: Path, duration: float | None, quiet: bool):
+    """Run the simulation described by CONFIG (a TOML file, see knotsim.io.config)."""
+    from knotsim.io.config import build_simulation, load_config
+
+    cfg = load_config(config, duration=duration)
+    sim = build_simulation(cfg)
+    wall0 = time.perf_counter()
+    try:
+        log = sim.run(cfg.duration, output_dir=outdir, output_interval=cfg.output_interval,
+                      progress=False if quiet else None)
+    except SimulationError as exc:
+        raise SimulationError(f"{exc} (partial output written to {outdir})",
+                              last_good_state=exc.last_good_state, time=exc.time) from exc
+    if not quiet:
+        click.echo(_run_summary(sim, log, time.perf_counter() - wall0, outdir))
+
+
+def _run_summary(sim, log, wall: float, outdir: Path) -> str:
+    """One paragraph: steps, Newton iterations per step, wall time, final reactions."""
+    steps = len(log)
+    iters = float(log["iterations"].mean()) if steps else 0.0
+    t = float(sim.state.time)
+    parts = [f"Simulated {t:.4g} s in {steps} steps ({sim.n_failures} step failures, "
+             f"{iters:.2f} Newton iterations per step), wall time {wall:.2f} s."]
+    reactions = []
+    if steps and sim.bcs is not None:
+        last = log.iloc[-1]
+        for g in sim.bcs.groups.values():
+            if not g.prescribed or f"{g.name}_fx" not in log.columns:
+                continue
+            f = [float(last[f"{g.name}_f{c}"]) for c in "xyz"]
+            m = float(last[f"{g.name}_moment"])
+            reactions.append(f"{g.name} F = ({f[0]:.4g}, {f[1]:.4g}, {f[2]:.4g}) N, "
+                             f"|F| = {math.sqrt(sum(x * x for x in f)):.4g} N, M = {m:.4g} N m")
+    if reactions:
+        parts.append(f"Final reactions at t = {t:.4g} s: " + "; ".join(reactions) + ".")
+    else:
+        parts.append("No prescribed groups, so no reaction forces.")
+    parts.append(f"Output in {outdir}/ (trajectory.h5, log.parquet, run.json).")
+    return " ".join(parts)
+
+
+# ------------------------------------------------------------------------------------------ validate
+def _validation_module():
+    try:
+        return importlib.import_module("knotsim.validation.cases")
+    except ModuleNotFoundError as exc:
+        if exc.name in ("knotsim.validation.cases", "knotsim.validation"):
+            _error("validation cases are not available in this version", EXIT_BAD_INPUT)
+        raise
+
+
+def _json_value(v):
+    """Plain JSON value (numpy scalars unwrapped, non-finite numbers as null)."""
+    if hasattr(v, "item") and not isinstance(v, str | bytes):
+        try:
+            v = v.item()
+        except (TypeError, ValueError):
+            v = v.tolist() if hasattr(v, "tolist") else str(v)
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, dict):
+        return {str(k): _json_value(x) for k, x in v.items()}
+    if isinstance(v, list | tuple):
+        return [_json_value(x) for x in v]
+    if v is None or isinstance(v, bool | int | float | str):
+        return v
+    return str(v)
+
+
+def _fmt(v) -> str:
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, int | float) or hasattr(v, "item"):
+        try:
+            return f"{float(v):.4g}"
+        except (TypeError, ValueError):
+            return str(v)
+    return "" if v is None else str(v)
+
+
+_TABLE_COLUMNS = ("case", "quantity", "value", "reference", "error", "tolerance", "passed", "wall_time")
+
+
+def _results_table(results: list[dict]) -> str:
+    rows = [[_fmt(r.get(c)) for c in _TABLE_COLUMNS] for r in results]
+    head = list(_TABLE_COLUMNS[:-1]) + ["wall_time (s)"]
+    widths = [max(len(h), *(len(row[i]) for row in rows)) if rows else len(h) for i, h in enumerate(head)]
+    lines = ["  ".join(h.ljust(w) for h, w in zip(head, widths, strict=True)),
+             "  ".join("-" * w for w in widths)]
+    for r, row in zip(results, rows, strict=True):
+        cells = [c.ljust(w) for c, w in zip(row, widths, strict=True)]
+        ok = bool(r.get("passed"))
+        cells[6] = click.style(("PASS" if ok else "FAIL").ljust(widths[6]), fg="green" if ok else "red", bold=not ok)
+        lines.append("  ".join(cells).rstrip())
+    return "\n".join(lines)
+
+
+@main.command()
+@click.argument("cases", nargs=-1)
+@click.option("--quick", is_flag=True, help="Coarser discretisations, for a fast check.")
+@click.option("--json-only", is_flag=True, help="Print only the final JSON line.")
+@_exit_codes
+def validate(cases: tuple[str, ...], quick: bool, json_only: bool):
+    """Run validation CASES against analytical or published results (default: all).
+
+    Prints a table, then one JSON line {"cases": [...], "passed": bool}; exit code 1 if a case fails.
+    """
+    mod = _validation_module()
+    known = list(mod.CASES)
+    unknown = [c for c in cases if c not in known]
+    if unknown:
+        _error(f"unknown validation case{'s' if len(unknown) > 1 else ''} {', '.join(map(repr, unknown))}; "
+               f"known cases: {', '.join(known)}", EXIT_BAD_INPUT)
+    names = list(dict.fromkeys(cases)) or known
+    results = list(mod.run_cases(names, quick))
+    passed = all(bool(r.get("passed")) for r in results)
+    if not json_only:
+        click.echo(_results_table(results))
+        n_fail = sum(not r.get("passed") for r in results)
+        click.echo(f"{len(results) - n_fail}/{len(results)} checks passed")
+    click.echo(json.dumps({"cases": _json_value(results), "passed": passed}))
+    if not passed:
+        raise click.exceptions.Exit(EXIT_FAILED_CHECKS)
+
+
+# ------------------------------------------------------------------------------------------ post-processing
+@main.command("export-vtk")
+@click.argument("run_dir", type=click.Path(exists=True, path_type=Path))
+@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Directory for the .vtp frames and the .pvd collection.")
+@click.option("--every", type=click.IntRange(min=1), default=1, help="Export every N-th frame.")
+@click.option("--ascii", "ascii_", is_flag=True, help="ASCII instead of inline binary data.")
+@_exit_codes
+def export_vtk(run_dir: Path, outdir: Path, every: int, ascii_: bool):
+    """Export RUN_DIR's trajectory (or a trajectory.h5 file) to VTK (ParaView) files."""
+    from knotsim.io.vtk import export_vtk as _export
+
+    files = _export(run_dir, outdir, every=every, encoding="ascii" if ascii_ else "binary")
+    click.echo(f"wrote {len(files)} files to {outdir}")
+
+
+def _parse_frames(value: str):
+    if value in ("last", "first", "all"):
+        return value
+    try:
+        idx = [int(x) for x in value.split(",") if x.strip()]
+    except ValueError:
+        raise click.BadParameter("expected last, first, all or comma-separated frame indices") from None
+    if not idx:
+        raise click.BadParameter("no frame given")
+    return idx[0] if len(idx) == 1 else idx
+
+
+def _parse_view(value: str):
+    if value in ("iso", "top", "front"):
+        return value
+    try:
+        elev, azim = (float(x) for x in value.split(","))
+    except ValueError:
+        raise click.BadParameter("expected iso, top, front or ELEV,AZIM in degrees") from None
+    return (elev, azim)
+
+
+def _parse_size(value: str):
+    try:
+        w, h = (int(x) for x in value.lower().split("x"))
+    except ValueError:
+        raise click.BadParameter("expected WIDTHxHEIGHT in pixels, e.g. 800x600") from None
+    if w <= 0 or h <= 0:
+        raise click.BadParameter("width and height must be positive")
+    return (w, h)
+
+
+@main.command()
+@click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("--frames", default="last", show_default=True, help="last, first, all, or indices I,J,...")
+@click.option("-o", "--output", "outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Directory for the PNG files (default RUN_DIR/render).")
+@click.option("--view", default="iso", show_default=True, help="iso, top, front or ELEV,AZIM (degrees).")
+@click.option("--size", default="800x600", show_default=True, help="Image size WIDTHxHEIGHT, pixels.")
+@click.option("--backend", type=click.Choice(["auto", "pyvista", "matplotlib"]), default="auto", show_default=True)
+@click.option("--color-by", type=click.Choice(["none", "bending_strain"]), default="none", show_default=True)
+@_exit_codes
+def render(run_dir: Path, frames: str, outdir: Path | None, view: str, size: str, backend: str, color_by: str):
+    """Render frames of RUN_DIR's trajectory as shaded tubes (PNG)."""
+    from knotsim.viz.render import render_run
+
+    paths = render_run(run_dir, frames=_parse_frames(frames), out_dir=outdir, view=_parse_view(view),
+                       size=_parse_size(size), backend=backend,
+                       color_by=None if color_by == "none" else color_by)
+    for p in paths:
+        click.echo(str(p))
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
