@@ -289,7 +289,7 @@ BAD = [
     ("bc.1.type", "teleport", "bc[1].type", "unknown type 'teleport'"),
     ("bc.1.rate", 1.0, "bc[1].rate", "unknown key here (not used by type 'move')"),
     ("bc.1.start", -1.0, "bc[1].start", "must be non-negative"),
-    ("bc.1.stop", 0.0, "bc[1].stop", "need 0 <= start < stop"),
+    ("bc.1.stop", 0.0, "bc[1].stop", "need start < stop"),
     ("bc.1.twist", "yes", "bc[1].twist", "expected true or false, got 'yes' (str)"),
     ("bc.1.nodes", ["a"], "bc[1].nodes[0]", "expected an integer, got 'a' (str)"),
     ("bc.1.nodes", 1.5, "bc[1].nodes", "expected a non-empty list of integers, got 1.5"),
