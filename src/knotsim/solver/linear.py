@@ -45,10 +45,13 @@ class BandedSolver:
 
 
 class SparseSolver:
-    def __init__(self, method: str = "auto"):
+    def __init__(self, method: str = "auto", blocks=None):
+        """``blocks``: starts of the node blocks of unknowns (``model.node_dof``) for the ordering."""
         if method not in ("auto", "splu", "fixed_lu"):
             raise ValueError(f"unknown sparse method {method!r}")
         self.method = method
+        self.blocks = blocks
+        self.fallbacks = 0
         self._lu = None
         self._key = None
 
@@ -63,13 +66,14 @@ class SparseSolver:
                 FixedPatternLU = None
             if FixedPatternLU is not None:
                 if self._key != pattern_id or self._lu is None:
-                    self._lu = FixedPatternLU(n, indptr, indices)
+                    blocks = list(self.blocks) if self.blocks is not None else 4
+                    self._lu = FixedPatternLU(n, indptr, indices, blocks=blocks, recycle=self._lu)
                     self._key = pattern_id
                 try:
                     self._lu.factorize(data)
                     return self._lu.solve(rhs)
                 except ZeroPivotError:
-                    pass
+                    self.fallbacks += 1
         A = sp.csc_matrix((data, indices, indptr), shape=(n, n))
         try:
             return splu(A, permc_spec="MMD_AT_PLUS_A").solve(rhs)

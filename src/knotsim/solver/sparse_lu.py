@@ -6,24 +6,29 @@ contact set changes (every few time steps) while its *values* change at every Ne
 :class:`FixedPatternLU` therefore splits the work in two:
 
 * **analyse** (once per pattern, in the constructor): symmetrise the pattern, compute a
-  fill-reducing ordering (exact minimum degree on the graph of DOF blocks, using bit-set rows; or
-  reverse Cuthill-McKee, or natural), the elimination tree, the pattern of ``L`` (and ``U = L^T``
-  in pattern), and a scatter map from the caller's CSC value order to the factor's input order;
-* **factorize** (every iteration): numeric up-looking LU without pivoting on the permuted matrix
-  ``P A P^T = L U`` (``L`` unit lower, ``U`` upper, same pattern as ``L^T``), all in numba kernels
-  with scalar loops and preallocated storage;
-* **solve**: two sparse triangular solves.
+  fill-reducing ordering (exact minimum degree on the quotient graph of DOF blocks, one bit set
+  per block; or reverse Cuthill-McKee, or natural), postorder the elimination tree, find the
+  pattern of ``L`` (``U`` has the pattern of ``L^T``), group columns into relaxed supernodes and
+  precompute where every value of the caller's CSC array goes;
+* **factorize** (every iteration): multifrontal LU without pivoting, ``P A P^T = L U`` (``L`` unit
+  lower, ``U`` upper). Each supernode assembles a dense frontal matrix, eliminates its pivots by
+  blocks, and passes its Schur complement to its parent; large Schur complements use BLAS
+  ``dgemm`` (through ``np.dot`` in numba), everything else is scalar numba loops on preallocated
+  storage. A scalar up-looking variant (``method="uplooking"``, no dense blocks) is kept for
+  comparison and as a simple reference;
+* **solve**: forward and backward substitution by supernodes.
 
 No pivoting is done: the Jacobian is dominated by its diagonal (mass / dt^2 plus stiffness). If a
 pivot ``|u_jj|`` is tiny relative to the largest entry of column ``j`` of ``A`` (or not finite),
 :class:`ZeroPivotError` is raised so that the caller can fall back to ``scipy.sparse.linalg.splu``.
 
-Storage of the factors (all in the permuted numbering):
+Typical use in a Newton loop::
 
-* ``Lp`` ``(n+1,)``, ``Li`` ``(nnz_L,)``: strictly lower pattern of ``L`` by columns, rows
-  ascending; ``Lx`` ``(nnz_L,)`` are the values of ``L``;
-* ``Ux`` ``(nnz_L,)``: values of the strictly upper part of ``U`` stored as ``U^T`` with the same
-  ``Lp``/``Li`` (by symmetry of the pattern); ``Ud`` ``(n,)`` is the diagonal of ``U``.
+    lu = FixedPatternLU(n, J.indptr, J.indices)      # when the contact set (pattern) changes
+    try:
+        dq = lu.factorize_solve(J.data, -f)          # every iteration
+    except ZeroPivotError:
+        dq = scipy.sparse.linalg.splu(J).solve(-f)
 """
 
 from __future__ import annotations
@@ -142,7 +147,6 @@ def _minimum_degree_blocks(n, gp, gi, block_of, nb):
     done = np.zeros(nb, np.bool_)
     order = np.empty(nb, np.int64)
     nbr = np.empty(nb, np.int64)
-    # lower bound on the current minimum degree (degrees only change for neighbours)
     for step in range(nb):
         best = -1
         bestd = nb + 1
