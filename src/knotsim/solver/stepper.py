@@ -217,7 +217,7 @@ class Stepper:
         self._elastic_groups = [m.stretch_dofs, m.bend_dofs]
         self._elastic_bw = asm.bandwidth(self._elastic_groups)
         self._banded = BandedSolver()
-        self._sparse = SparseSolver(blocks=model.node_dof)
+        self._sparse = SparseSolver(blocks=np.append(model.node_dof, model.n_dofs))
         self._pattern_key = None
         self._pattern_id = 0
         self._bend_twist = np.zeros((m.n_bend, 11, 11))
