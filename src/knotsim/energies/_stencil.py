@@ -35,11 +35,12 @@ def scatter_gradient(gz, scale, dofs, grad):
 
 
 @njit(inline="always", cache=True)
-def hessian_to_stencil(Hz, scale, out):
-    """``out (11, 11) = scale * T^T Hz T``."""
-    for i in range(11):
-        for j in range(11):
-            out[i, j] = 0.0
+def hessian_to_stencil(Hz, scale, out, accumulate=False):
+    """``out (11, 11) = scale * T^T Hz T`` (``+=`` when ``accumulate``)."""
+    if not accumulate:
+        for i in range(11):
+            for j in range(11):
+                out[i, j] = 0.0
     for a in range(8):
         ja1, ca1, ja2, ca2 = zmap(a)
         for b in range(8):

@@ -31,8 +31,11 @@ class FrameSource:
 class ElasticEnergy:
     """Stretching + bending + twisting energy of a :class:`~knotsim.rods.Model`."""
 
-    def __init__(self, model):
+    def __init__(self, model, separate_blocks: bool = False):
+        """``separate_blocks``: keep twisting Hessian blocks apart from the bending ones (for
+        tests); by default they are summed into ``bend_hess``."""
         self.model = model
+        self.separate_blocks = separate_blocks
         ne, nb, nd = model.n_edges, model.n_bend, model.n_dofs
         self.tangents = np.zeros((ne, 3))
         self.lengths = np.zeros(ne)
@@ -45,7 +48,7 @@ class ElasticEnergy:
         self.grad = np.zeros(nd)
         self.stretch_hess = np.zeros((ne, 6, 6))
         self.bend_hess = np.zeros((nb, 11, 11))
-        self.twist_hess = np.zeros((nb, 11, 11))
+        self.twist_hess = np.zeros((nb, 11, 11)) if separate_blocks else self.bend_hess
         self.energies = {"stretching": 0.0, "bending": 0.0, "twisting": 0.0}
 
     def update_frames(self, q: np.ndarray, source: FrameSource) -> None:
@@ -69,7 +72,7 @@ class ElasticEnergy:
                             m.bend_EI, m.voronoi_rest, m.kappa_bar, g, self.bend_hess, want_hessian, self.kappa)
         et = twisting_energy(q, m.bend_dofs, m.bend_edges, self.tangents, self.lengths, self.ref_twist,
                              m.twist_GJ, m.voronoi_rest, m.twist_bar, g, self.twist_hess, want_hessian,
-                             self.twist)
+                             self.twist, not self.separate_blocks)
         self.energies["stretching"] = es
         self.energies["bending"] = eb
         self.energies["twisting"] = et

@@ -7,7 +7,8 @@ its gradient is ``kb / (2 |e|)`` with respect to ``e`` and ``kb / (2 |f|)`` with
 Kernel arguments: ``q (n_dofs,)``; ``bend_dofs (nb, 11)``; ``bend_edges (nb, 2)``; ``tangents (ne, 3)``;
 ``lengths (ne,)`` m; ``ref_twist (nb,)`` rad; ``GJ (nb,)`` N m^2; ``voronoi (nb,)`` m;
 ``twist_bar (nb,)`` rad. Adds the gradient to ``grad``; when ``want_hessian`` writes 11x11 blocks into
-``hess (nb, 11, 11)``. Returns the energy (J); ``twist_out (nb,)`` receives ``m``.
+``hess (nb, 11, 11)`` (added to it when ``accumulate``, e.g. onto the bending blocks). Returns the
+energy (J); ``twist_out (nb,)`` receives ``m``.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from knotsim.energies._stencil import hessian_to_stencil, scatter_gradient, set_
 
 @njit(cache=True)
 def twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, ref_twist, GJ, voronoi, twist_bar,
-                    grad, hess, want_hessian, twist_out):
+                    grad, hess, want_hessian, twist_out, accumulate=False):
     nb = bend_dofs.shape[0]
     gz = np.zeros(8)
     Hz = np.zeros((8, 8))
@@ -82,7 +83,7 @@ def twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, ref_twist, GJ, 
             Hz[6, 1] += -s2 * w * t0[0]
             Hz[4, 2] += -s2 * w * t0[1]
             Hz[5, 2] += s2 * w * t0[0]
-            hessian_to_stencil(Hz, coef, hess[s])
+            hessian_to_stencil(Hz, coef, hess[s], accumulate)
         for p in range(8):
             gz[p] *= dm
         scatter_gradient(gz, coef, bend_dofs[s], grad)

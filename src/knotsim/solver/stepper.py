@@ -220,7 +220,6 @@ class Stepper:
         self._sparse = SparseSolver(blocks=np.append(model.node_dof, model.n_dofs))
         self._pattern_key = None
         self._pattern_id = 0
-        self._bend_twist = np.zeros((m.n_bend, 11, 11))
         self.last_solver = ""
         #: Accumulated wall time (s) in force/energy evaluation, Jacobian assembly and linear solves.
         self.timers = {"forces": 0.0, "assembly": 0.0, "linear_solve": 0.0}
@@ -238,7 +237,6 @@ class Stepper:
     def _assemble(self, diag, inter_blocks, fixed) -> None:
         m = self.model
         el = self.elastic
-        np.add(el.bend_hess, el.twist_hess, out=self._bend_twist)
         inter_dofs = [inter.block_dofs() for inter in self.interactions]
         n = m.n_dofs
         if self._use_banded(inter_dofs):
@@ -248,7 +246,7 @@ class Stepper:
             row0 = kl + ku
             asm.banded_add_diagonal(ab, row0, diag)
             asm.banded_add_blocks(ab, row0, m.stretch_dofs, el.stretch_hess)
-            asm.banded_add_blocks(ab, row0, m.bend_dofs, self._bend_twist)
+            asm.banded_add_blocks(ab, row0, m.bend_dofs, el.bend_hess)  # bending + twisting
             for dofs, blocks in zip(inter_dofs, inter_blocks, strict=True):
                 if blocks is not None and dofs.size:
                     asm.banded_add_blocks(ab, row0, dofs, blocks)
@@ -270,7 +268,7 @@ class Stepper:
         data = np.zeros(self._indices.size)
         asm.csc_add_diagonal(data, self._diag_slots, diag)
         asm.csc_add_blocks(data, self._stretch_slots, el.stretch_hess)
-        asm.csc_add_blocks(data, self._bend_slots, self._bend_twist)
+        asm.csc_add_blocks(data, self._bend_slots, el.bend_hess)  # bending + twisting
         for slots, blocks in zip(self._inter_slots, inter_blocks, strict=True):
             if slots is not None and blocks is not None:
                 asm.csc_add_blocks(data, slots, blocks)
