@@ -1,0 +1,168 @@
+"""Numba kernels of the contact interaction: the loop over candidate edge pairs.
+
+Every pair ``k`` is described by the 12 indices ``pair_dofs[k]`` in the global vector ``q`` of the
+coordinates of its four nodes ``x0, x1`` (edge i) and ``x2, x3`` (edge j), its contact distance
+``pair_d[k] = h_a + h_b`` (m) and its friction coefficient ``pair_mu[k]``. The kernels loop over the
+pairs with per-pair scratch arrays allocated once per call (no Python loop, no per-pair allocation).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from knotsim.contact.distance import (
+    edge_edge_beta_gradients,
+    edge_edge_distance,
+    edge_edge_distance_derivatives,
+)
+from knotsim.contact.friction import friction_pair
+from knotsim.contact.potential import contact_pair_energy
+
+
+@njit(cache=True)
+def pair_dofs_from_edges(pairs, edge_dofs):
+    """The 12 coordinate indices of every edge pair.
+
+    Parameters
+    ----------
+    pairs : (k, 2) int64, edge numbers ``(a, b)``.
+    edge_dofs : (n_edges, 2) int64, index in ``q`` of the x coordinate of each end node.
+
+    Returns
+    -------
+    (k, 12) int64: ``x0, x1`` of edge ``a`` then ``x2, x3`` of edge ``b``, 3 coordinates each.
+    """
+    k = pairs.shape[0]
+    out = np.empty((k, 12), dtype=np.int64)
+    for p in range(k):
+        a = pairs[p, 0]
+        b = pairs[p, 1]
+        for m in range(3):
+            out[p, m] = edge_dofs[a, 0] + m
+            out[p, 3 + m] = edge_dofs[a, 1] + m
+            out[p, 6 + m] = edge_dofs[b, 0] + m
+            out[p, 9 + m] = edge_dofs[b, 1] + m
+    return out
+
+
+@njit(cache=True)
+def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
+                     blocks, pair_delta, pair_fc, pair_ff):
+    """Contact and friction of every candidate pair at the Newton iterate ``q``.
+
+    Parameters
+    ----------
+    q, q_prev : (n_dofs,) float64, iterate and start-of-step unknowns (m, rad).
+    dt : time step (s); friction uses the velocities ``(q - q_prev)/dt``.
+    pair_dofs : (k, 12) int64; pair_d : (k,) float64 contact distances (m); pair_mu : (k,) float64.
+    tol : IMC distance tolerance δ (m); nu : slip tolerance ν (m/s); kc : contact stiffness (N/m).
+    residual : (n_dofs,) float64, updated in place: ``+= k_c ∇E − F_fr`` (N).
+    want_jacobian : whether to fill ``blocks``.
+    blocks : (k, 12, 12) float64 output (if ``want_jacobian``): ``k_c ∇²E − ∂F_fr/∂p`` (N/m); zero
+        for pairs out of range.
+    pair_delta : (k,) float64 output, distance Δ (m) of every pair.
+    pair_fc, pair_ff : (k, 12) float64 outputs, contact force ``−k_c ∇E`` and friction force (N) on
+        the four nodes of every pair.
+
+    Returns
+    -------
+    Total contact energy ``k_c Σ E`` (J).
+    """
+    npair = pair_dofs.shape[0]
+    p = np.empty(12)
+    pp = np.empty(12)
+    grad = np.empty(12)
+    hess = np.empty((12, 12))
+    fc = np.empty(12)
+    dfc = np.empty((12, 12))
+    dbi = np.empty(12)
+    dbj = np.empty(12)
+    ffr = np.empty(12)
+    jfr = np.empty((12, 12))
+    etot = 0.0
+    for k in range(npair):
+        for m in range(12):
+            p[m] = q[pair_dofs[k, m]]
+        E, delta, bi, bj, case = contact_pair_energy(p, pair_d[k], tol, grad, hess)
+        pair_delta[k] = delta
+        if E <= 0.0:
+            for m in range(12):
+                pair_fc[k, m] = 0.0
+                pair_ff[k, m] = 0.0
+            if want_jacobian:
+                for m in range(12):
+                    for n in range(12):
+                        blocks[k, m, n] = 0.0
+            continue
+        etot += E
+        for m in range(12):
+            g = kc * grad[m]
+            fc[m] = -g
+            pair_fc[k, m] = -g
+            residual[pair_dofs[k, m]] += g
+        mu = pair_mu[k]
+        if mu > 0.0:
+            for m in range(12):
+                pp[m] = q_prev[pair_dofs[k, m]]
+                for n in range(12):
+                    dfc[m, n] = -kc * hess[m, n]
+            edge_edge_beta_gradients(p, bi, bj, case, dbi, dbj)
+            friction_pair(p, pp, dt, mu, nu, fc, dfc, bi, bj, dbi, dbj, ffr, jfr)
+            for m in range(12):
+                pair_ff[k, m] = ffr[m]
+                residual[pair_dofs[k, m]] -= ffr[m]
+            if want_jacobian:
+                for m in range(12):
+                    for n in range(12):
+                        blocks[k, m, n] = kc * hess[m, n] - jfr[m, n]
+        else:
+            for m in range(12):
+                pair_ff[k, m] = 0.0
+            if want_jacobian:
+                for m in range(12):
+                    for n in range(12):
+                        blocks[k, m, n] = kc * hess[m, n]
+    return kc * etot
+
+
+@njit(cache=True)
+def pair_distances(q, pair_dofs, out):
+    """Distance Δ (m) of every pair at ``q`` into ``out`` (k,)."""
+    p = np.empty(12)
+    for k in range(pair_dofs.shape[0]):
+        for m in range(12):
+            p[m] = q[pair_dofs[k, m]]
+        delta, _, _, _ = edge_edge_distance(p)
+        out[k] = delta
+
+
+@njit(cache=True)
+def approach_forces(q, v, dt, pair_dofs, pair_d, tol, node_mass):
+    """Largest force needed to stop an approaching pair within one step (N).
+
+    For each pair whose distance at ``q`` minus its approach over ``dt`` falls below ``d + δ``, the
+    approach speed ``−dΔ/dt = −∇Δ · v`` (m/s) times the mean mass of its four nodes (kg), divided by
+    ``dt`` (s). ``node_mass`` is indexed like ``q`` (kg per position unknown).
+    """
+    p = np.empty(12)
+    grad = np.empty(12)
+    hess = np.empty((12, 12))
+    fmax = 0.0
+    for k in range(pair_dofs.shape[0]):
+        for m in range(12):
+            p[m] = q[pair_dofs[k, m]]
+        delta, _, _, _ = edge_edge_distance_derivatives(p, grad, hess)
+        rate = 0.0
+        for m in range(12):
+            rate += grad[m] * v[pair_dofs[k, m]]
+        if rate >= 0.0:
+            continue
+        if delta + rate * dt >= pair_d[k] + tol:
+            continue
+        mass = 0.25 * (node_mass[pair_dofs[k, 0]] + node_mass[pair_dofs[k, 3]]
+                       + node_mass[pair_dofs[k, 6]] + node_mass[pair_dofs[k, 9]])
+        f = -rate * mass / dt
+        if f > fmax:
+            fmax = f
+    return fmax

@@ -1,0 +1,366 @@
+"""Contact broad phase: find every pair of edges that may be in contact.
+
+A pair of edges ``(a, b)`` is a *candidate* when the minimum distance between the two segments is
+below the pair's cut-off ``edge_radius[a] + edge_radius[b] + extra`` (m), unless both edges belong
+to the same rod and are fewer than 3 edges apart along it (measured cyclically on closed rods):
+such neighbours always "touch" and are never candidates (physics notes, section 2).
+
+Algorithm (linear in the number of edges for bounded density):
+
+1. Every edge gets an axis-aligned box: the box of its two end points inflated by
+   ``edge_radius[e] + extra / 2`` (plus a few ulps of slack). Two edges closer than their cut-off
+   always have overlapping boxes.
+2. Boxes are put into a uniform grid of cubic cells (edge ``h`` about the typical box size). Each box
+   is registered in every cell it overlaps; cells are hashed by sorting the packed cell keys.
+   Boxes much larger than the cells ("big" edges, more than ``_MAX_CELLS_PER_EDGE`` cells) are not
+   registered and are instead tested against every edge, so one very long edge cannot blow up
+   memory or the cell size.
+3. Inside each cell, pairs of boxes are tested for overlap. A pair is handled only in the cell that
+   holds the lower corner of the intersection of the two boxes, so each pair is seen once without
+   de-duplication.
+4. Surviving pairs that are not same-rod neighbours get an exact segment-segment distance test.
+
+The result is exactly the set of pairs (not excluded) for which :func:`segment_distance` is below
+the cut-off; the grid only decides which pairs are tested. All kernels are numba
+``@njit(cache=True)`` scalar code.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from knotsim import _vec3 as v3
+
+# Cells per axis are kept below 2**_AXIS_BITS so a cell (ix, iy, iz) packs into one int64 key.
+_AXIS_BITS = 20
+_AXIS_CELLS = 1 << _AXIS_BITS
+# An edge whose box covers more cells than this is treated as "big" (tested against all edges).
+_MAX_CELLS_PER_EDGE = 64
+# Cell edge relative to the median box size, capped by the largest box size.
+_CELL_FACTOR = 1.0
+
+
+@njit(inline="always", cache=True)
+def _clamp01(x):
+    if x < 0.0:
+        return 0.0
+    if x > 1.0:
+        return 1.0
+    return x
+
+
+@njit(cache=True)
+def segment_distance(p0, p1, q0, q1):
+    """Minimum distance (m) between segments ``[p0, p1]`` and ``[q0, q1]``.
+
+    Arguments are 3-tuples of floats (m). Handles degenerate (zero-length) and parallel segments:
+    the returned value is always the distance of an actual pair of points on the two segments (the
+    closest pair, up to rounding). The final norm is rescaled when its square would underflow, so
+    tiny distances are not flushed to zero (segments shorter than about 1e-150 m are handled as
+    points, an error below their length).
+    """
+    d1 = v3.sub(p1, p0)
+    d2 = v3.sub(q1, q0)
+    r = v3.sub(p0, q0)
+    a = v3.dot(d1, d1)
+    e = v3.dot(d2, d2)
+    f = v3.dot(d2, r)
+    s = 0.0
+    t = 0.0
+    if a <= 0.0 and e <= 0.0:
+        pass
+    elif a <= 0.0:
+        t = _clamp01(f / e)
+    else:
+        c = v3.dot(d1, r)
+        if e <= 0.0:
+            s = _clamp01(-c / a)
+        else:
+            b = v3.dot(d1, d2)
+            denom = a * e - b * b
+            # Parallel (or nearly): any s works for the line problem; take s = 0 and let the
+            # clamping below find the closest pair of the segments.
+            if denom > 1e-14 * a * e:
+                s = _clamp01((b * f - c * e) / denom)
+            t = (b * s + f) / e
+            if t < 0.0:
+                t = 0.0
+                s = _clamp01(-c / a)
+            elif t > 1.0:
+                t = 1.0
+                s = _clamp01((b - c) / a)
+    w = v3.sub(v3.axpy(s, d1, p0), v3.axpy(t, d2, q0))
+    w2 = v3.dot(w, w)
+    if w2 > 1e-280:
+        return math.sqrt(w2)
+    big = max(abs(w[0]), abs(w[1]), abs(w[2]))
+    if big == 0.0:
+        return 0.0
+    return big * v3.norm((w[0] / big, w[1] / big, w[2] / big))
+
+
+@njit(inline="always", cache=True)
+def _excluded(a, b, edge_rod, edge_local, rod_n_edges, rod_closed):
+    """True when edges ``a`` and ``b`` are on the same rod and fewer than 3 edges apart."""
+    r = edge_rod[a]
+    if r != edge_rod[b]:
+        return False
+    di = abs(edge_local[a] - edge_local[b])
+    if rod_closed[r]:
+        n = rod_n_edges[r]
+        if n - di < di:
+            di = n - di
+    return di < 3
+
+
+@njit(inline="always", cache=True)
+def _close(a, b, q, edge_dofs, edge_radius, extra):
+    """Exact test: segment distance of edges ``a``, ``b`` below their cut-off.
+
+    The distance is always evaluated with the lower edge number first, so rounding (the kernel is
+    not bit-symmetric in its arguments) cannot depend on the order in which pairs are visited.
+    """
+    if a > b:
+        a, b = b, a
+    d = segment_distance(
+        v3.load(q, edge_dofs[a, 0]),
+        v3.load(q, edge_dofs[a, 1]),
+        v3.load(q, edge_dofs[b, 0]),
+        v3.load(q, edge_dofs[b, 1]),
+    )
+    return d < edge_radius[a] + edge_radius[b] + extra
+
+
+@njit(inline="always", cache=True)
+def _boxes_overlap(lo, hi, a, b):
+    for k in range(3):
+        if lo[a, k] > hi[b, k] or lo[b, k] > hi[a, k]:
+            return False
+    return True
+
+
+@njit(inline="always", cache=True)
+def _push(pairs, n, a, b):
+    """Append ``(min(a,b), max(a,b))`` to the growable buffer; return (buffer, new count)."""
+    if n == pairs.shape[0]:
+        bigger = np.empty((2 * pairs.shape[0], 2), dtype=np.int64)
+        bigger[:n] = pairs[:n]
+        pairs = bigger
+    if a < b:
+        pairs[n, 0] = a
+        pairs[n, 1] = b
+    else:
+        pairs[n, 0] = b
+        pairs[n, 1] = a
+    return pairs, n + 1
+
+
+@njit(cache=True)
+def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_closed, edge_radius, extra):
+    """All pairs of edges closer than their contact cut-off.
+
+    Parameters
+    ----------
+    q : (n_dofs,) float64
+        Global vector of unknowns (m, rad). Edge ``e`` runs from ``q[edge_dofs[e, 0]:+3]`` to
+        ``q[edge_dofs[e, 1]:+3]``.
+    edge_dofs : (n_edges, 2) int64
+        Index in ``q`` of the x coordinate of each end node of every edge.
+    edge_rod : (n_edges,) int64
+        Rod of every edge.
+    edge_local : (n_edges,) int64
+        Index of every edge inside its rod.
+    rod_n_edges : (n_rods,) int64
+        Number of edges of every rod.
+    rod_closed : (n_rods,) bool
+        Whether every rod is a closed ring.
+    edge_radius : (n_edges,) float64
+        Cross-section radius of every edge (m).
+    extra : float
+        Additional cut-off distance (m), typically ``delta + margin``.
+
+    Returns
+    -------
+    pairs : (m, 2) int64
+        Every pair ``(a, b)``, ``a < b``, with minimum segment-segment distance
+        ``< edge_radius[a] + edge_radius[b] + extra``, excluding same-rod pairs fewer than 3 edges
+        apart (``min(|i-j|, n-|i-j|)`` on closed rods). Rows are sorted lexicographically.
+    """
+    ne = edge_dofs.shape[0]
+    if edge_dofs.ndim != 2 or edge_dofs.shape[1] != 2:
+        raise ValueError("edge_dofs must have shape (n_edges, 2)")
+    if edge_rod.shape[0] != ne or edge_local.shape[0] != ne or edge_radius.shape[0] != ne:
+        raise ValueError("edge_rod, edge_local and edge_radius must have n_edges entries")
+    if ne < 2:
+        return np.empty((0, 2), dtype=np.int64)
+
+    # 1. inflated boxes, global bounds, box sizes
+    lo = np.empty((ne, 3))
+    hi = np.empty((ne, 3))
+    size = np.empty(ne)
+    gmin = np.full(3, np.inf)
+    gmax = np.full(3, -np.inf)
+    half = 0.5 * extra
+    for e in range(ne):
+        i0 = edge_dofs[e, 0]
+        i1 = edge_dofs[e, 1]
+        pad = edge_radius[e] + half
+        smax = 0.0
+        for k in range(3):
+            x0 = q[i0 + k]
+            x1 = q[i1 + k]
+            mn = min(x0, x1)
+            mx = max(x0, x1)
+            # slack of a few ulps so rounding can never separate boxes of a touching pair
+            slack = 1e-12 * (abs(mn) + abs(mx) + pad)
+            l = mn - pad - slack
+            u = mx + pad + slack
+            if not (math.isfinite(l) and math.isfinite(u)):
+                raise ValueError("non-finite edge coordinates or radius")
+            lo[e, k] = l
+            hi[e, k] = u
+            if l < gmin[k]:
+                gmin[k] = l
+            if u > gmax[k]:
+                gmax[k] = u
+            if u - l > smax:
+                smax = u - l
+        size[e] = smax
+
+    # 2. cell size: about the typical box size, never so small that an axis overflows the key
+    h = min(_CELL_FACTOR * np.median(size), size.max())
+    extent = 0.0
+    for k in range(3):
+        extent = max(extent, gmax[k] - gmin[k])
+    # (the 1e-300 floor keeps 1/h finite when all boxes are points; an infinite extent gives one
+    # cell, still correct)
+    h = max(h, extent / (_AXIS_CELLS - 2), 1e-300)
+    inv_h = 1.0 / h
+
+    # cell ranges of every box; big boxes go to a separate list
+    clo = np.empty((ne, 3), dtype=np.int64)
+    chi = np.empty((ne, 3), dtype=np.int64)
+    big = np.zeros(ne, dtype=np.bool_)
+    n_entries = 0
+    n_big = 0
+    for e in range(ne):
+        cnt = 1
+        for k in range(3):
+            a = min(int(math.floor((lo[e, k] - gmin[k]) * inv_h)), _AXIS_CELLS - 1)
+            b = min(int(math.floor((hi[e, k] - gmin[k]) * inv_h)), _AXIS_CELLS - 1)
+            clo[e, k] = a
+            chi[e, k] = b
+            cnt *= b - a + 1
+        if cnt > _MAX_CELLS_PER_EDGE:
+            big[e] = True
+            n_big += 1
+        else:
+            n_entries += cnt
+
+    # register boxes in cells; packed key = (ix << 2B) | (iy << B) | iz
+    keys = np.empty(n_entries, dtype=np.int64)
+    owner = np.empty(n_entries, dtype=np.int64)
+    m = 0
+    for e in range(ne):
+        if big[e]:
+            continue
+        for ix in range(clo[e, 0], chi[e, 0] + 1):
+            for iy in range(clo[e, 1], chi[e, 1] + 1):
+                for iz in range(clo[e, 2], chi[e, 2] + 1):
+                    keys[m] = (ix << (2 * _AXIS_BITS)) | (iy << _AXIS_BITS) | iz
+                    owner[m] = e
+                    m += 1
+    order = np.argsort(keys)
+
+    # Entries in cell order with their box copied next to them (contiguous inner loop). ``home``
+    # has bit k set when the box starts (lowest cell) in this cell along axis k: a pair belongs to
+    # this cell iff max(clo[a], clo[b]) == cell on every axis, i.e. (home_a | home_b) == 7.
+    axis_mask = _AXIS_CELLS - 1
+    skeys = np.empty(n_entries, dtype=np.int64)
+    sown = np.empty(n_entries, dtype=np.int64)
+    home = np.empty(n_entries, dtype=np.int64)
+    box = np.empty((n_entries, 6))
+    for m in range(n_entries):
+        key = keys[order[m]]
+        e = owner[order[m]]
+        skeys[m] = key
+        sown[m] = e
+        hm = 0
+        if clo[e, 0] == key >> (2 * _AXIS_BITS):
+            hm |= 1
+        if clo[e, 1] == (key >> _AXIS_BITS) & axis_mask:
+            hm |= 2
+        if clo[e, 2] == key & axis_mask:
+            hm |= 4
+        home[m] = hm
+        for k in range(3):
+            box[m, k] = lo[e, k]
+            box[m, 3 + k] = hi[e, k]
+
+    pairs = np.empty((max(16, 4 * ne), 2), dtype=np.int64)
+    npairs = 0
+
+    # 3. pairs inside each cell, each handled only in the cell of its intersection's lower corner
+    s = 0
+    while s < n_entries:
+        key = skeys[s]
+        t = s + 1
+        while t < n_entries and skeys[t] == key:
+            t += 1
+        for i in range(s, t - 1):
+            hi_ = home[i]
+            l0 = box[i, 0]
+            l1 = box[i, 1]
+            l2 = box[i, 2]
+            u0 = box[i, 3]
+            u1 = box[i, 4]
+            u2 = box[i, 5]
+            for j in range(i + 1, t):
+                # branch-free overlap + ownership test (the outcome is hard to predict)
+                hit = (
+                    ((hi_ | home[j]) == 7)
+                    & (box[j, 0] <= u0)
+                    & (box[j, 1] <= u1)
+                    & (box[j, 2] <= u2)
+                    & (l0 <= box[j, 3])
+                    & (l1 <= box[j, 4])
+                    & (l2 <= box[j, 5])
+                )
+                if not hit:
+                    continue
+                a = sown[i]
+                b = sown[j]
+                if _excluded(a, b, edge_rod, edge_local, rod_n_edges, rod_closed):
+                    continue
+                if _close(a, b, q, edge_dofs, edge_radius, extra):
+                    pairs, npairs = _push(pairs, npairs, a, b)
+        s = t
+
+    # big boxes against everything (a big-big pair is handled once, from its smaller index)
+    if n_big > 0:
+        for a in range(ne):
+            if not big[a]:
+                continue
+            for b in range(ne):
+                if b == a or (big[b] and b < a):
+                    continue
+                if not _boxes_overlap(lo, hi, a, b):
+                    continue
+                if _excluded(a, b, edge_rod, edge_local, rod_n_edges, rod_closed):
+                    continue
+                if _close(a, b, q, edge_dofs, edge_radius, extra):
+                    pairs, npairs = _push(pairs, npairs, a, b)
+
+    # 4. lexicographic order
+    pkey = np.empty(npairs, dtype=np.int64)
+    for k in range(npairs):
+        pkey[k] = pairs[k, 0] * ne + pairs[k, 1]
+    porder = np.argsort(pkey)
+    out = np.empty((npairs, 2), dtype=np.int64)
+    for k in range(npairs):
+        out[k, 0] = pairs[porder[k], 0]
+        out[k, 1] = pairs[porder[k], 1]
+    return out

@@ -1,0 +1,387 @@
+"""Contact and friction between rod edges as a stepper interaction (IMC + smooth Coulomb friction).
+
+>>> contact = ContactInteraction(model, ContactSettings(mu=0.3))
+>>> sim = Simulation(model, bcs, SolverSettings(dt=2.5e-3), interactions=[contact])
+
+Candidate pairs (:meth:`ContactInteraction.begin_step`) come from the broad phase: every pair of
+edges closer than ``h_a + h_b + delta + margin``. The list is kept as a Verlet list: rebuilt when
+some node has moved more than ``margin / 2`` since the last build, reused otherwise (the Jacobian
+pattern then stays the same from step to step); it is fixed during a Newton solve. During Newton
+every candidate pair contributes the IMC energy ``k_c E(Δ)`` (:mod:`knotsim.contact.potential`) and,
+when ``μ > 0``, the fully implicit smooth Coulomb friction (:mod:`knotsim.contact.friction`). A
+converged step is rejected (:meth:`ContactInteraction.check`) when a pair penetrates deeper than
+``penetration_limit`` times the smaller radius of the pair, or when the list went stale: once some
+node has moved more than ``margin / 2`` since the build, an exact broad phase at the solution
+(cut-off ``d + delta``) must find no pair outside the list.
+
+Contact stiffness ``k_c`` (N/m): ``"constant"`` uses ``stiffness``. ``"adaptive"`` (default) sets,
+before each step, ``k_target = stiffness_scaler * F_max / h_min`` with ``h_min`` the smallest edge
+radius of the model (m) and ``F_max`` (N) the largest of
+
+* the largest nodal contact force magnitude at the last accepted step (nodes in contact);
+* the force needed to stop the fastest approaching candidate pair within one step
+  (mean node mass × approach speed / dt; catches first impacts).
+
+``k_c`` jumps up to ``k_target`` at once and relaxes down towards it with an exponential moving
+average (weight ``STIFFNESS_RELAX`` per step); it never drops below ``stiffness_floor`` (default
+``stiffness_scaler × (largest node mass × 1 m/s²) / h_min``) nor below ``stiffness`` when that is
+given. A step rejected for penetration multiplies ``k_c`` by ``PENETRATION_BOOST`` before the retry.
+
+With ``stiffness_scaler = 500`` the most loaded contact rests with ``k_c E'(Δ) = F_max``, at a gap
+``Δ − d ≈ (δ/30) ln(stiffness_scaler δ / (7.5 h_min))`` (≈ 50 µm for ``h = 1.6 mm``,
+``δ = 0.5 mm``); the force at ``Δ = d`` is ``≈ 0.046 δ k_c``, well above ``F_max``, so resting
+contacts do not penetrate.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from knotsim.contact.assembly import approach_forces, contact_evaluate, pair_dofs_from_edges
+from knotsim.contact.broadphase import find_candidate_pairs
+from knotsim.errors import ConfigError
+
+#: Weight of the new target in the downward moving average of the adaptive stiffness (per step).
+STIFFNESS_RELAX = 0.02
+#: Factor applied to the adaptive stiffness after a step rejected for penetration.
+PENETRATION_BOOST = 4.0
+#: The pair list is rebuilt when a node has moved more than this fraction of ``margin`` since the
+#: last build.
+REBUILD_FRACTION = 0.5
+
+__all__ = ["ContactInteraction", "ContactSettings", "contact_from_config"]
+
+
+def _positive(name: str, value, allow_zero: bool = False) -> float:
+    ok = isinstance(value, int | float | np.floating | np.integer) and not isinstance(value, bool)
+    ok = ok and math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
+    if not ok:
+        kind = "non-negative" if allow_zero else "positive"
+        raise ConfigError(f"contact.{name}", f"must be a {kind} finite number, got {value!r}")
+    return float(value)
+
+
+@dataclass
+class ContactSettings:
+    """Settings of :class:`ContactInteraction` (SI units).
+
+    - ``delta``: IMC distance tolerance δ (m), default 5e-4;
+    - ``nu``: slip tolerance ν (m/s) of the smooth Coulomb law, default 1e-4;
+    - ``mu``: friction coefficient; a number, or a per-rod-pair table ``{(rod_a, rod_b): mu, ...}``
+      (rods by index or name, order irrelevant; self-contact of rod ``a`` is ``(a, a)``) with an
+      optional ``"default"`` entry (default 0) for the pairs not listed. Default 0 (no friction);
+    - ``stiffness_mode``: ``"adaptive"`` (default) or ``"constant"``;
+    - ``stiffness``: contact stiffness k_c (N/m); required for ``"constant"``; in adaptive mode
+      an optional lower bound / starting value;
+    - ``stiffness_scaler``: adaptive ``k_c = scaler × F_max / h_min`` (default 500);
+    - ``stiffness_floor``: smallest adaptive k_c (N/m); default from the model (see module doc);
+    - ``margin``: broad-phase cut-off margin (m), default 2e-3;
+    - ``penetration_limit``: deepest accepted penetration as a fraction of the smaller radius of the
+      pair (default 0.2); a deeper step is retried smaller;
+    - ``self_contact``: whether edges of the same rod touch (default True).
+    """
+
+    delta: float = 5e-4
+    nu: float = 1e-4
+    mu: float | dict = 0.0
+    stiffness_mode: str = "adaptive"
+    stiffness: float | None = None
+    stiffness_scaler: float = 500.0
+    stiffness_floor: float | None = None
+    margin: float = 2e-3
+    penetration_limit: float = 0.2
+    self_contact: bool = True
+
+    def validate(self) -> None:
+        """Raise :class:`ConfigError` naming the first bad field."""
+        self.delta = _positive("delta", self.delta)
+        self.nu = _positive("nu", self.nu)
+        if isinstance(self.mu, dict):
+            for key, val in self.mu.items():
+                _positive(f"mu[{key!r}]", val, allow_zero=True)
+                if key != "default" and not (isinstance(key, tuple) and len(key) == 2):
+                    raise ConfigError("contact.mu", f"table keys must be (rod_a, rod_b) pairs or 'default', got {key!r}")
+        else:
+            self.mu = _positive("mu", self.mu, allow_zero=True)
+        if self.stiffness_mode not in ("adaptive", "constant"):
+            raise ConfigError("contact.stiffness_mode",
+                              f"must be 'adaptive' or 'constant', got {self.stiffness_mode!r}")
+        if self.stiffness is not None:
+            self.stiffness = _positive("stiffness", self.stiffness)
+        elif self.stiffness_mode == "constant":
+            raise ConfigError("contact.stiffness", "constant stiffness mode needs a stiffness (N/m)")
+        self.stiffness_scaler = _positive("stiffness_scaler", self.stiffness_scaler)
+        if self.stiffness_floor is not None:
+            self.stiffness_floor = _positive("stiffness_floor", self.stiffness_floor)
+        self.margin = _positive("margin", self.margin, allow_zero=True)
+        self.penetration_limit = _positive("penetration_limit", self.penetration_limit)
+        if not isinstance(self.self_contact, bool | np.bool_):
+            raise ConfigError("contact.self_contact", f"must be true or false, got {self.self_contact!r}")
+
+
+@dataclass
+class _Eval:
+    """Results of the last kernel evaluation (per pair)."""
+
+    q: np.ndarray | None = None
+    delta: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    fc: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)))
+    ff: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)))
+
+
+class ContactInteraction:
+    """Edge-edge contact (IMC) and friction of all rods of a model; a stepper ``Interaction``.
+
+    Attributes
+    ----------
+    name : ``"contact"``.
+    pairs : (k, 2) int64, candidate edge pairs of the current step.
+    pair_dofs : (k, 12) int64, their node coordinates in ``q``.
+    k_c : current contact stiffness (N/m).
+    timers : accumulated wall time (s) in ``"broad_phase"`` and ``"narrow_phase"`` (all evaluations).
+    """
+
+    name = "contact"
+
+    def __init__(self, model, settings: ContactSettings | None = None):
+        self.model = model
+        self.settings = settings or ContactSettings()
+        self.settings.validate()
+        s = self.settings
+        m = model
+        self._mu_table = self._mu_matrix(s.mu)
+        self.h_min = float(np.min(m.edge_radius)) if m.n_edges else 1.0
+        node_mass = m.mass[m.node_dof] if m.n_nodes else np.zeros(1)
+        if s.stiffness_floor is not None:
+            floor = s.stiffness_floor
+        else:
+            floor = s.stiffness_scaler * float(np.max(node_mass)) * 1.0 / self.h_min
+        if s.stiffness is not None:
+            floor = max(floor, s.stiffness) if s.stiffness_mode == "adaptive" else s.stiffness
+        self.k_floor = floor
+        self.k_c = s.stiffness if s.stiffness_mode == "constant" else floor
+        self._fmax_accepted = 0.0
+        self._fmax_pending = 0.0
+        self.pairs = np.zeros((0, 2), np.int64)
+        self.pair_dofs = np.zeros((0, 12), np.int64)
+        self.pair_d = np.zeros(0)
+        self.pair_mu = np.zeros(0)
+        self.pair_hmin = np.zeros(0)
+        self._blocks = np.zeros((0, 12, 12))
+        self._pair_keys = np.zeros(0, np.int64)
+        self._q_build = None
+        self._node_xyz = m.node_dof[:, None] + np.arange(3)[None, :]
+        #: number of broad-phase rebuilds of the pair list
+        self.n_rebuilds = 0
+        self._q_prev = None
+        self._dt = 1.0
+        self._last = _Eval()
+        self._stats: dict = {}
+        self.timers = {"broad_phase": 0.0, "narrow_phase": 0.0}
+
+    # ------------------------------------------------------------------ setup
+    def _mu_matrix(self, mu) -> np.ndarray:
+        m = self.model
+        nr = m.n_rods
+        if not isinstance(mu, dict):
+            return np.full((nr, nr), float(mu))
+        table = np.full((nr, nr), float(mu.get("default", 0.0)))
+        for key, val in mu.items():
+            if key == "default":
+                continue
+            try:
+                a = m.rod_index(key[0])
+                b = m.rod_index(key[1])
+            except ConfigError as exc:
+                raise ConfigError("contact.mu", f"unknown rod in pair {key!r}: {exc}") from None
+            table[a, b] = table[b, a] = float(val)
+        return table
+
+    # ------------------------------------------------------------------ Interaction protocol
+    def _max_displacement(self, q) -> float:
+        """Largest node displacement (m) of ``q`` since the last broad phase."""
+        m = self.model
+        if self._q_build is None or not m.n_nodes:
+            return math.inf
+        d = (q - self._q_build)[self._node_xyz]
+        return float(np.sqrt(np.max(np.sum(d * d, axis=1))))
+
+    def _broad_phase(self, q, extra: float) -> np.ndarray:
+        m = self.model
+        pairs = find_candidate_pairs(q, m.edge_dofs, m.edge_rod, m.edge_local, m.rod_n_edges, m.rod_closed,
+                                     m.edge_radius, extra)
+        if not self.settings.self_contact and pairs.shape[0]:
+            pairs = pairs[m.edge_rod[pairs[:, 0]] != m.edge_rod[pairs[:, 1]]]
+        return np.ascontiguousarray(pairs, dtype=np.int64)
+
+    def begin_step(self, state_in, dt: float) -> None:
+        """Candidate pairs (broad phase, cut-off ``h_a + h_b + delta + margin``) and k_c for a step.
+
+        The pair list is a Verlet list: it is rebuilt at ``state_in.q`` when some node has moved more
+        than ``REBUILD_FRACTION × margin`` since the last build (or on the first step), and reused
+        otherwise, so the Jacobian pattern changes only when the list is rebuilt.
+        :meth:`check` verifies at the end of every step that no pair outside the list came within
+        ``d + delta``.
+        """
+        m = self.model
+        s = self.settings
+        t0 = time.perf_counter()
+        q = state_in.q
+        if self._max_displacement(q) > REBUILD_FRACTION * s.margin:
+            self._set_pairs(self._broad_phase(q, s.delta + s.margin))
+            self._q_build = q.copy()
+            self.n_rebuilds += 1
+        self._q_prev = q
+        self._dt = dt
+        self._last = _Eval()
+        self.timers["broad_phase"] += time.perf_counter() - t0
+        if s.stiffness_mode == "adaptive":
+            t1 = time.perf_counter()
+            k = self.pair_dofs.shape[0]
+            f_imp = approach_forces(q, state_in.v, dt, self.pair_dofs, self.pair_d, s.delta, m.mass) if k else 0.0
+            self.timers["narrow_phase"] += time.perf_counter() - t1
+            fmax = max(self._fmax_accepted, f_imp)
+            if fmax > 0.0:
+                target = s.stiffness_scaler * fmax / self.h_min
+                if target > self.k_c:
+                    self.k_c = target
+                else:
+                    self.k_c += STIFFNESS_RELAX * (target - self.k_c)
+            self.k_c = max(self.k_c, self.k_floor)
+
+    def _set_pairs(self, pairs) -> None:
+        m = self.model
+        self.pairs = pairs
+        self.pair_dofs = pair_dofs_from_edges(pairs, m.edge_dofs)
+        ra = m.edge_radius[pairs[:, 0]]
+        rb = m.edge_radius[pairs[:, 1]]
+        self.pair_d = ra + rb
+        self.pair_hmin = np.minimum(ra, rb)
+        self.pair_mu = np.ascontiguousarray(self._mu_table[m.edge_rod[pairs[:, 0]], m.edge_rod[pairs[:, 1]]])
+        self._pair_keys = pairs[:, 0] * m.n_edges + pairs[:, 1]
+        self._blocks = np.zeros((pairs.shape[0], 12, 12))
+
+    def block_dofs(self) -> np.ndarray:
+        """``(k, 12)`` unknowns of the Jacobian block of every candidate pair."""
+        return self.pair_dofs
+
+    def evaluate(self, q, q_prev, dt, residual, want_jacobian):
+        """Add ``k_c ∇E − F_friction`` (N) to ``residual``; return ``(k_c ΣE (J), blocks (k,12,12) | None)``."""
+        t0 = time.perf_counter()
+        k = self.pair_dofs.shape[0]
+        ev = _Eval(q.copy(), np.empty(k), np.empty((k, 12)), np.empty((k, 12)))
+        e = contact_evaluate(q, q_prev, dt, self.pair_dofs, self.pair_d, self.pair_mu, self.settings.delta,
+                             self.settings.nu, self.k_c, residual, bool(want_jacobian), self._blocks, ev.delta,
+                             ev.fc, ev.ff)
+        self._last = ev
+        self._q_prev = q_prev
+        self._dt = dt
+        self.timers["narrow_phase"] += time.perf_counter() - t0
+        return float(e), (self._blocks if want_jacobian else None)
+
+    def _evaluated_at(self, q) -> _Eval:
+        ev = self._last
+        if ev.q is None or ev.q.shape != q.shape or not np.array_equal(ev.q, q):
+            scratch = np.zeros(q.shape[0])
+            self.evaluate(q, self._q_prev if self._q_prev is not None else q, self._dt, scratch, False)
+            ev = self._last
+        return ev
+
+    def check(self, q) -> str | None:
+        """Reject ``q`` if a pair penetrates deeper than the limit or the broad phase went stale."""
+        s = self.settings
+        m = self.model
+        k = self.pair_dofs.shape[0]
+        dmax = self._max_displacement(q)
+        if dmax > 0.5 * s.margin:
+            # a pair outside the list may have come into range: exact test at q
+            t0 = time.perf_counter()
+            near = self._broad_phase(q, s.delta)
+            self.timers["broad_phase"] += time.perf_counter() - t0
+            missing = ~np.isin(near[:, 0] * m.n_edges + near[:, 1], self._pair_keys)
+            if np.any(missing):
+                self._q_build = None  # force a rebuild for the retry
+                a, b = near[np.argmax(missing)]
+                return (f"contact broad phase stale: edges {a} and {b} came within contact range after nodes "
+                        f"moved {dmax:.3g} m since the pair list was built (margin {s.margin:.3g} m)")
+        ev = self._evaluated_at(q)
+        self._compute_stats(ev)
+        if k:
+            ratio = (self.pair_d - ev.delta) / self.pair_hmin
+            worst = int(np.argmax(ratio))
+            if ratio[worst] > s.penetration_limit:
+                if s.stiffness_mode == "adaptive":
+                    self.k_c *= PENETRATION_BOOST
+                a, b = self.pairs[worst]
+                return (f"contact penetration {ratio[worst]:.3g} x radius between edges {a} and {b} exceeds "
+                        f"penetration_limit {s.penetration_limit}")
+        return None
+
+    def _compute_stats(self, ev: _Eval) -> None:
+        m = self.model
+        k = self.pair_dofs.shape[0]
+        fmax = 0.0
+        if k:
+            gap = ev.delta - self.pair_d
+            n_contacts = int(np.count_nonzero(gap < self.settings.delta))
+            min_gap = float(np.min(gap))
+            pen = float(max(0.0, np.max(-gap / self.pair_hmin)))
+            fc = np.zeros(m.n_dofs)
+            ff = np.zeros(m.n_dofs)
+            np.add.at(fc, self.pair_dofs.ravel(), ev.fc.ravel())
+            np.add.at(ff, self.pair_dofs.ravel(), ev.ff.ravel())
+            idx = m.node_dof[:, None] + np.arange(3)[None, :]
+            fcn = np.linalg.norm(fc[idx], axis=1)
+            ffn = np.linalg.norm(ff[idx], axis=1)
+            fmax = float(np.max(fcn))
+            fc_tot = 0.5 * float(np.sum(fcn))
+            ff_tot = 0.5 * float(np.sum(ffn))
+        else:
+            n_contacts, min_gap, pen, fc_tot, ff_tot = 0, math.nan, 0.0, 0.0, 0.0
+        self._fmax_pending = fmax
+        self._stats = {"n_contacts": n_contacts, "min_gap": min_gap, "max_penetration_ratio": pen,
+                       "contact_force_total": fc_tot, "friction_force_total": ff_tot, "k_c": float(self.k_c)}
+
+    def stats(self) -> dict:
+        """Numbers of the last accepted step: ``n_contacts`` (pairs with ``Δ < d + δ``), ``min_gap``
+        (m, ``min Δ − d``; NaN without candidate pairs), ``max_penetration_ratio`` (``max(d − Δ)/h``,
+        ≥ 0), ``contact_force_total`` and ``friction_force_total`` (N, half the sum of nodal force
+        magnitudes), ``k_c`` (N/m)."""
+        # the stepper asks for stats only for an accepted step: its contact force drives k_c
+        self._fmax_accepted = self._fmax_pending
+        return dict(self._stats)
+
+
+def contact_from_config(model, table: dict) -> list:
+    """Interactions described by a ``[contact]`` configuration table.
+
+    Keys are the fields of :class:`ContactSettings`; an unknown key raises :class:`ConfigError`
+    naming it. ``mu`` may be a number or a table ``{default = 0.1, "rope,obstacle" = 0.3}`` whose
+    keys other than ``default`` are two rod names (or indices) separated by a comma.
+    Returns ``[ContactInteraction]``.
+    """
+    if not isinstance(table, dict):
+        raise ConfigError("contact", f"expected a table, got {type(table).__name__}")
+    names = {f.name for f in fields(ContactSettings)}
+    kwargs = {}
+    for key, val in table.items():
+        if key not in names:
+            raise ConfigError(f"contact.{key}", f"unknown key; known keys are {sorted(names)}")
+        kwargs[key] = val
+    mu = kwargs.get("mu")
+    if isinstance(mu, dict):
+        parsed = {}
+        for key, val in mu.items():
+            if key == "default":
+                parsed["default"] = val
+                continue
+            parts = [p.strip() for p in str(key).split(",")]
+            if len(parts) != 2 or not all(parts):
+                raise ConfigError(f"contact.mu.{key}", "expected two rod names separated by a comma, e.g. \"a,b\"")
+            parsed[tuple(int(p) if p.lstrip("-").isdigit() else p for p in parts)] = val
+        kwargs["mu"] = parsed
+    return [ContactInteraction(model, ContactSettings(**kwargs))]
