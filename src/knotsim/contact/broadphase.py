@@ -117,19 +117,20 @@ def _excluded(a, b, edge_rod, edge_local, rod_n_edges, rod_closed):
 
 
 @njit(inline="always", cache=True)
-def _close(a, b, q, edge_dofs, edge_radius, extra):
+def _close(a, b, ends, edge_radius, extra):
     """Exact test: segment distance of edges ``a``, ``b`` below their cut-off.
 
-    The distance is always evaluated with the lower edge number first, so rounding (the kernel is
-    not bit-symmetric in its arguments) cannot depend on the order in which pairs are visited.
+    ``ends`` (n_edges, 6) holds the two end points of every edge. The distance is always evaluated
+    with the lower edge number first, so rounding (the kernel is not bit-symmetric in its
+    arguments) cannot depend on the order in which pairs are visited.
     """
     if a > b:
         a, b = b, a
     d = segment_distance(
-        v3.load(q, edge_dofs[a, 0]),
-        v3.load(q, edge_dofs[a, 1]),
-        v3.load(q, edge_dofs[b, 0]),
-        v3.load(q, edge_dofs[b, 1]),
+        (ends[a, 0], ends[a, 1], ends[a, 2]),
+        (ends[a, 3], ends[a, 4], ends[a, 5]),
+        (ends[b, 0], ends[b, 1], ends[b, 2]),
+        (ends[b, 3], ends[b, 4], ends[b, 5]),
     )
     return d < edge_radius[a] + edge_radius[b] + extra
 
@@ -142,20 +143,12 @@ def _boxes_overlap(lo, hi, a, b):
     return True
 
 
-@njit(inline="always", cache=True)
-def _push(pairs, n, a, b):
-    """Append ``(min(a,b), max(a,b))`` to the growable buffer; return (buffer, new count)."""
-    if n == pairs.shape[0]:
-        bigger = np.empty((2 * pairs.shape[0], 2), dtype=np.int64)
-        bigger[:n] = pairs[:n]
-        pairs = bigger
-    if a < b:
-        pairs[n, 0] = a
-        pairs[n, 1] = b
-    else:
-        pairs[n, 0] = b
-        pairs[n, 1] = a
-    return pairs, n + 1
+@njit(cache=True)
+def _grow(pairs):
+    """Copy of the (cap, 2) pair buffer with twice the capacity."""
+    bigger = np.empty((2 * pairs.shape[0], 2), dtype=np.int64)
+    bigger[: pairs.shape[0]] = pairs
+    return bigger
 
 
 @njit(cache=True)
@@ -198,6 +191,7 @@ def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
         return np.empty((0, 2), dtype=np.int64)
 
     # 1. inflated boxes, global bounds, box sizes
+    ends = np.empty((ne, 6))
     lo = np.empty((ne, 3))
     hi = np.empty((ne, 3))
     size = np.empty(ne)
@@ -212,6 +206,8 @@ def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
         for k in range(3):
             x0 = q[i0 + k]
             x1 = q[i1 + k]
+            ends[e, k] = x0
+            ends[e, 3 + k] = x1
             mn = min(x0, x1)
             mx = max(x0, x1)
             # slack of a few ulps so rounding can never separate boxes of a touching pair
@@ -335,8 +331,12 @@ def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
                 b = sown[j]
                 if _excluded(a, b, edge_rod, edge_local, rod_n_edges, rod_closed):
                     continue
-                if _close(a, b, q, edge_dofs, edge_radius, extra):
-                    pairs, npairs = _push(pairs, npairs, a, b)
+                if _close(a, b, ends, edge_radius, extra):
+                    if npairs == pairs.shape[0]:
+                        pairs = _grow(pairs)
+                    pairs[npairs, 0] = min(a, b)
+                    pairs[npairs, 1] = max(a, b)
+                    npairs += 1
         s = t
 
     # big boxes against everything (a big-big pair is handled once, from its smaller index)
@@ -351,8 +351,12 @@ def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
                     continue
                 if _excluded(a, b, edge_rod, edge_local, rod_n_edges, rod_closed):
                     continue
-                if _close(a, b, q, edge_dofs, edge_radius, extra):
-                    pairs, npairs = _push(pairs, npairs, a, b)
+                if _close(a, b, ends, edge_radius, extra):
+                    if npairs == pairs.shape[0]:
+                        pairs = _grow(pairs)
+                    pairs[npairs, 0] = min(a, b)
+                    pairs[npairs, 1] = max(a, b)
+                    npairs += 1
 
     # 4. lexicographic order
     pkey = np.empty(npairs, dtype=np.int64)
