@@ -152,6 +152,23 @@ def _grow(pairs):
 
 
 @njit(cache=True)
+def _counting_order(values, order, n_values):
+    """Stable counting sort: the items ``order`` (indices into ``values``, each in
+    ``[0, n_values)``) reordered by increasing ``values[item]``."""
+    start = np.zeros(n_values + 1, dtype=np.int64)
+    for k in range(order.shape[0]):
+        start[values[order[k]] + 1] += 1
+    for v in range(n_values):
+        start[v + 1] += start[v]
+    out = np.empty(order.shape[0], dtype=np.int64)
+    for k in range(order.shape[0]):
+        v = values[order[k]]
+        out[start[v]] = order[k]
+        start[v] += 1
+    return out
+
+
+@njit(cache=True)
 def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_closed, edge_radius, extra):
     """All pairs of edges closer than their contact cut-off.
 
@@ -256,9 +273,19 @@ def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
         else:
             n_entries += cnt
 
-    # register boxes in cells; packed key = (ix << 2B) | (iy << B) | iz
+    # Register boxes in every cell they overlap. ``home`` has bit k set when the box starts (lowest
+    # cell) in this cell along axis k: a pair belongs to a cell iff max(clo[a], clo[b]) == cell on
+    # every axis, i.e. (home_a | home_b) == 7 there.
+    nxyz = np.ones(3, dtype=np.int64)
+    for e in range(ne):
+        if not big[e]:
+            for k in range(3):
+                nxyz[k] = max(nxyz[k], chi[e, k] + 1)
+    n_cells = nxyz[0] * nxyz[1] * nxyz[2]  # < 2**60, no overflow
+    dense = n_cells <= 4 * n_entries + 4096
     keys = np.empty(n_entries, dtype=np.int64)
     owner = np.empty(n_entries, dtype=np.int64)
+    home_u = np.empty(n_entries, dtype=np.int64)
     m = 0
     for e in range(ne):
         if big[e]:
@@ -266,32 +293,49 @@ def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
         for ix in range(clo[e, 0], chi[e, 0] + 1):
             for iy in range(clo[e, 1], chi[e, 1] + 1):
                 for iz in range(clo[e, 2], chi[e, 2] + 1):
-                    keys[m] = (ix << (2 * _AXIS_BITS)) | (iy << _AXIS_BITS) | iz
+                    if dense:
+                        keys[m] = (ix * nxyz[1] + iy) * nxyz[2] + iz
+                    else:
+                        keys[m] = (ix << (2 * _AXIS_BITS)) | (iy << _AXIS_BITS) | iz
                     owner[m] = e
+                    home_u[m] = (ix == clo[e, 0]) | ((iy == clo[e, 1]) << 1) | ((iz == clo[e, 2]) << 2)
                     m += 1
-    order = np.argsort(keys)
 
-    # Entries in cell order with their box copied next to them (contiguous inner loop). ``home``
-    # has bit k set when the box starts (lowest cell) in this cell along axis k: a pair belongs to
-    # this cell iff max(clo[a], clo[b]) == cell on every axis, i.e. (home_a | home_b) == 7.
-    axis_mask = _AXIS_CELLS - 1
-    skeys = np.empty(n_entries, dtype=np.int64)
+    # Group entries by cell: counting sort when the grid is dense, else a comparison sort.
+    # ``run[c]:run[c+1]`` are then the entries of the c-th group.
+    if dense:
+        run = np.zeros(n_cells + 1, dtype=np.int64)
+        for m in range(n_entries):
+            run[keys[m] + 1] += 1
+        for c in range(n_cells):
+            run[c + 1] += run[c]
+        fill = run[:-1].copy()
+        order = np.empty(n_entries, dtype=np.int64)
+        for m in range(n_entries):
+            order[fill[keys[m]]] = m
+            fill[keys[m]] += 1
+    else:
+        order = np.argsort(keys)
+        n_runs = 0
+        for m in range(n_entries):
+            if m == 0 or keys[order[m]] != keys[order[m - 1]]:
+                n_runs += 1
+        run = np.empty(n_runs + 1, dtype=np.int64)
+        c = 0
+        for m in range(n_entries):
+            if m == 0 or keys[order[m]] != keys[order[m - 1]]:
+                run[c] = m
+                c += 1
+        run[n_runs] = n_entries
+
+    # entries in cell order with their box copied next to them (contiguous inner loop)
     sown = np.empty(n_entries, dtype=np.int64)
     home = np.empty(n_entries, dtype=np.int64)
     box = np.empty((n_entries, 6))
     for m in range(n_entries):
-        key = keys[order[m]]
         e = owner[order[m]]
-        skeys[m] = key
         sown[m] = e
-        hm = 0
-        if clo[e, 0] == key >> (2 * _AXIS_BITS):
-            hm |= 1
-        if clo[e, 1] == (key >> _AXIS_BITS) & axis_mask:
-            hm |= 2
-        if clo[e, 2] == key & axis_mask:
-            hm |= 4
-        home[m] = hm
+        home[m] = home_u[order[m]]
         for k in range(3):
             box[m, k] = lo[e, k]
             box[m, 3 + k] = hi[e, k]
@@ -300,12 +344,9 @@ def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
     npairs = 0
 
     # 3. pairs inside each cell, each handled only in the cell of its intersection's lower corner
-    s = 0
-    while s < n_entries:
-        key = skeys[s]
-        t = s + 1
-        while t < n_entries and skeys[t] == key:
-            t += 1
+    for c in range(run.shape[0] - 1):
+        s = run[c]
+        t = run[c + 1]
         for i in range(s, t - 1):
             hi_ = home[i]
             l0 = box[i, 0]
@@ -337,7 +378,6 @@ def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
                     pairs[npairs, 0] = min(a, b)
                     pairs[npairs, 1] = max(a, b)
                     npairs += 1
-        s = t
 
     # big boxes against everything (a big-big pair is handled once, from its smaller index)
     if n_big > 0:
@@ -358,13 +398,11 @@ def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
                     pairs[npairs, 1] = max(a, b)
                     npairs += 1
 
-    # 4. lexicographic order
-    pkey = np.empty(npairs, dtype=np.int64)
-    for k in range(npairs):
-        pkey[k] = pairs[k, 0] * ne + pairs[k, 1]
-    porder = np.argsort(pkey)
+    # 4. lexicographic order: two stable counting sorts (on the second index, then the first)
+    by_second = _counting_order(pairs[:npairs, 1], np.arange(npairs), ne)
+    by_both = _counting_order(pairs[:npairs, 0], by_second, ne)
     out = np.empty((npairs, 2), dtype=np.int64)
     for k in range(npairs):
-        out[k, 0] = pairs[porder[k], 0]
-        out[k, 1] = pairs[porder[k], 1]
+        out[k, 0] = pairs[by_both[k], 0]
+        out[k, 1] = pairs[by_both[k], 1]
     return out

@@ -144,3 +144,54 @@ def bandwidth(dof_groups: list[np.ndarray]) -> int:
         if dofs.size:
             bw = max(bw, int(np.max(dofs.max(axis=1) - dofs.min(axis=1))))
     return bw
+
+
+@njit(cache=True)
+def merge_pattern(n, indptr_e, indices_e, extra_dofs):
+    """Union of a fixed CSC pattern with the blocks ``extra_dofs (k, m)`` (numba, no scipy).
+
+    Returns ``(indptr, indices, remap)`` where ``remap[p]`` is the new slot of the fixed pattern's
+    slot ``p``, so maps computed once on the fixed pattern stay valid via ``remap[old_map]``.
+    """
+    k, m = extra_dofs.shape
+    cnt = np.empty(n, np.int64)
+    for c in range(n):
+        cnt[c] = indptr_e[c + 1] - indptr_e[c]
+    for b in range(k):
+        for j in range(m):
+            cnt[extra_dofs[b, j]] += m
+    ptr = np.zeros(n + 1, np.int64)
+    for c in range(n):
+        ptr[c + 1] = ptr[c] + cnt[c]
+    buf = np.empty(ptr[n], np.int64)
+    fill = ptr[:n].copy()
+    for c in range(n):
+        for p in range(indptr_e[c], indptr_e[c + 1]):
+            buf[fill[c]] = indices_e[p]
+            fill[c] += 1
+    for b in range(k):
+        for j in range(m):
+            c = extra_dofs[b, j]
+            for i in range(m):
+                buf[fill[c]] = extra_dofs[b, i]
+                fill[c] += 1
+    indptr = np.zeros(n + 1, np.int64)
+    out = np.empty(ptr[n], np.int64)
+    nnz = 0
+    for c in range(n):
+        seg = np.sort(buf[ptr[c]:ptr[c + 1]])
+        last = -1
+        for r in seg:
+            if r != last:
+                out[nnz] = r
+                nnz += 1
+                last = r
+        indptr[c + 1] = nnz
+    indices = out[:nnz].copy()
+    remap = np.empty(indices_e.shape[0], np.int64)
+    for c in range(n):
+        lo = indptr[c]
+        hi = indptr[c + 1]
+        for p in range(indptr_e[c], indptr_e[c + 1]):
+            remap[p] = _find(indices, lo, hi, indices_e[p])
+    return indptr, indices, remap

@@ -15,16 +15,14 @@ from numba import njit
 
 
 @njit(cache=True)
-def ldlt_banded_solve(ab, row0, kl, rhs, x):
-    """Solve ``A x = rhs`` for symmetric banded ``A`` given in LAPACK ``gbsv`` storage
-    (``A[i, j] = ab[row0 + i - j, j]``, half-bandwidth ``kl``; only the lower band is read).
-    ``ab`` is not modified. Returns ``True`` on success."""
-    n = rhs.shape[0]
-    w = np.empty((n, kl + 1))  # w[j, i - j] = L[i, j] (contiguous per column)
+def ldlt_banded_factor(ab, row0, kl, w, d):
+    """Factorise symmetric banded ``A`` (``A[i, j] = ab[row0 + i - j, j]``, half-bandwidth ``kl``;
+    only the lower band is read, ``ab`` is not modified) into ``w (n, kl+1)``
+    (``w[j, i - j] = L[i, j]``) and ``d (n,)``. Returns ``False`` on a tiny or non-finite pivot."""
+    n = d.shape[0]
     for j in range(n):
         for r in range(kl + 1):
             w[j, r] = ab[row0 + r, j] if j + r < n else 0.0
-    d = np.empty(n)
     for j in range(n):
         dj = w[j, 0]
         if not (abs(dj) > 1e-13 * (abs(ab[row0, j]) + 1e-300)) or not np.isfinite(dj):
@@ -42,6 +40,13 @@ def ldlt_banded_solve(ab, row0, kl, rhs, x):
                 continue
             for ri in range(rk, iend - j):
                 w[k, ri - rk] -= w[j, ri] * lkd
+    return True
+
+
+@njit(cache=True)
+def ldlt_banded_substitute(w, d, kl, rhs, x):
+    """Solve ``L D L^T x = rhs`` with the factors of :func:`ldlt_banded_factor`."""
+    n = d.shape[0]
     for i in range(n):
         s = rhs[i]
         for k in range(max(0, i - kl), i):
@@ -54,4 +59,15 @@ def ldlt_banded_solve(ab, row0, kl, rhs, x):
         for k in range(i + 1, min(n, i + kl + 1)):
             s -= w[i, k - i] * x[k]
         x[i] = s
+
+
+@njit(cache=True)
+def ldlt_banded_solve(ab, row0, kl, rhs, x):
+    """Factorise and solve in one call (see :func:`ldlt_banded_factor`). Returns ``True`` on success."""
+    n = rhs.shape[0]
+    w = np.empty((n, kl + 1))
+    d = np.empty(n)
+    if not ldlt_banded_factor(ab, row0, kl, w, d):
+        return False
+    ldlt_banded_substitute(w, d, kl, rhs, x)
     return True

@@ -16,7 +16,7 @@ from scipy.linalg import lapack
 from scipy.sparse.linalg import splu
 
 from knotsim.errors import KnotsimError
-from knotsim.solver.banded import ldlt_banded_solve
+from knotsim.solver.banded import ldlt_banded_factor, ldlt_banded_substitute
 
 
 class LinearSolveError(KnotsimError, ArithmeticError):
@@ -25,22 +25,36 @@ class LinearSolveError(KnotsimError, ArithmeticError):
 
 class BandedSolver:
     """Banded solve: symmetric LDL^T without pivoting (numba) when the matrix is symmetric, with
-    LAPACK ``dgbsv`` (partial pivoting) as fallback and for non-symmetric matrices."""
+    LAPACK ``dgbsv``-style LU (partial pivoting) as fallback and for non-symmetric matrices.
+    :meth:`factorize` once, then :meth:`solve` any number of right-hand sides."""
 
     def __init__(self):
         self.fallbacks = 0
+        self._factors = None
 
-    def solve(self, ab: np.ndarray, kl: int, ku: int, rhs: np.ndarray, symmetric: bool = False) -> np.ndarray:
-        """Solve with ``ab`` in ``gbsv`` storage (shape ``(2 kl + ku + 1, n)``, preferably
+    def factorize(self, ab: np.ndarray, kl: int, ku: int, symmetric: bool = False) -> None:
+        """Factorise ``ab`` in ``gbsv`` storage (shape ``(2 kl + ku + 1, n)``, preferably
         Fortran-ordered); ``ab`` is left unchanged."""
+        n = ab.shape[1]
         if symmetric and kl == ku:
-            x = np.empty_like(rhs)
-            if ldlt_banded_solve(ab, kl + ku, kl, rhs, x):
-                return x
+            w = np.empty((n, kl + 1))
+            d = np.empty(n)
+            if ldlt_banded_factor(ab, kl + ku, kl, w, d):
+                self._factors = ("ldlt", w, d, kl)
+                return
             self.fallbacks += 1
-        lu, piv, x, info = lapack.dgbsv(kl, ku, np.array(ab, order="F"), rhs, overwrite_ab=1, overwrite_b=0)
+        lu, piv, info = lapack.dgbtrf(np.array(ab, order="F"), kl, ku)
         if info != 0:
             raise LinearSolveError(f"banded LU failed (LAPACK info={info}): singular Newton matrix")
+        self._factors = ("lu", lu, piv, kl, ku)
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        f = self._factors
+        if f[0] == "ldlt":
+            x = np.empty_like(rhs)
+            ldlt_banded_substitute(f[1], f[2], f[3], rhs, x)
+            return x
+        x, info = lapack.dgbtrs(f[1], f[3], f[4], rhs, f[2])
         return x
 
 
@@ -54,28 +68,31 @@ class SparseSolver:
         self.fallbacks = 0
         self._lu = None
         self._key = None
+        self._splu = None
 
-    def solve(self, n: int, indptr: np.ndarray, indices: np.ndarray, data: np.ndarray,
-              rhs: np.ndarray, pattern_id: int) -> np.ndarray:
+    def factorize(self, n: int, indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, pattern_id: int) -> None:
         if not np.all(np.isfinite(data)):
             raise LinearSolveError("Newton matrix has NaN or infinite entries")
+        self._splu = None
         if self.method in ("auto", "fixed_lu"):
+            from knotsim.solver.sparse_lu import FixedPatternLU, ZeroPivotError
+
+            if self._key != pattern_id or self._lu is None:
+                blocks = list(self.blocks) if self.blocks is not None else 4
+                self._lu = FixedPatternLU(n, indptr, indices, blocks=blocks, recycle=self._lu)
+                self._key = pattern_id
             try:
-                from knotsim.solver.sparse_lu import FixedPatternLU, ZeroPivotError
-            except ImportError:  # pragma: no cover
-                FixedPatternLU = None
-            if FixedPatternLU is not None:
-                if self._key != pattern_id or self._lu is None:
-                    blocks = list(self.blocks) if self.blocks is not None else 4
-                    self._lu = FixedPatternLU(n, indptr, indices, blocks=blocks, recycle=self._lu)
-                    self._key = pattern_id
-                try:
-                    self._lu.factorize(data)
-                    return self._lu.solve(rhs)
-                except ZeroPivotError:
-                    self.fallbacks += 1
+                self._lu.factorize(data)
+                return
+            except ZeroPivotError:
+                self.fallbacks += 1
         A = sp.csc_matrix((data, indices, indptr), shape=(n, n))
         try:
-            return splu(A, permc_spec="MMD_AT_PLUS_A").solve(rhs)
+            self._splu = splu(A, permc_spec="MMD_AT_PLUS_A")
         except RuntimeError as exc:
             raise LinearSolveError(f"sparse LU failed: {exc}") from exc
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        if self._splu is not None:
+            return self._splu.solve(rhs)
+        return self._lu.solve(rhs)

@@ -43,13 +43,19 @@ class NewtonResult:
 
 
 def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 25,
-                 line_search: bool = True, max_cuts: int = 8) -> NewtonResult:
+                 line_search: bool = True, max_cuts: int = 8, reuse_jacobian: bool = False,
+                 reuse_ratio: float = 0.25) -> NewtonResult:
     """Solve ``residual(q) = 0`` from ``q0`` (prescribed unknowns already set in ``q0``).
 
     Each iteration solves ``J dq = -r`` and accepts ``q + a dq`` with the largest
     ``a = 1, 1/2, ...`` (at most ``max_cuts`` halvings) that reduces either the residual norm or the
     system's incremental potential ``merit`` (Armijo condition with slope ``r . dq``); if none does,
-    the smallest step is taken. Accepting a decrease of the potential lets Newton take the full
+    the smallest step is taken. With ``reuse_jacobian`` (modified Newton), the factorised Jacobian
+    is kept for the next iteration as long as each iteration cuts the residual norm by at least
+    ``1/reuse_ratio`` without line-search cuts; otherwise it is re-assembled at the new point.
+    (Reusing the factorisation across time steps was measured too: fewer factorisations but more
+    iterations, and no gain per step; see ``docs/performance.md``.)
+    Accepting a decrease of the potential lets Newton take the full
     steps that stiff stretching makes look bad in residual norm (a bending step raises the stretching
     residual before the next iteration removes it).
     """
@@ -72,8 +78,9 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
         merit0 = system.merit
         slope = float(np.dot(r, dq))
         q_try = q + dq
-        r_try = system.residual(q_try, True)
+        r_try = system.residual(q_try, not reuse_jacobian)
         rn_try = system.residual_norm(r_try)
+        cuts = 0
 
         def acceptable(a, rn_try):
             if rn_try <= (1.0 - 1e-4 * a) * rn:
@@ -82,17 +89,16 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
             return slope < 0.0 and np.isfinite(m) and m <= merit0 + 1e-4 * a * slope
 
         if line_search:
-            cuts = 0
             while not acceptable(a, rn_try) and cuts < max_cuts:
                 a *= 0.5
                 cuts += 1
                 q_try = q + a * dq
                 r_try = system.residual(q_try, False)
                 rn_try = system.residual_norm(r_try)
-            if cuts:
-                cuts_total += cuts
-                r_try = system.residual(q_try, True)  # Jacobian at the accepted point
-                rn_try = system.residual_norm(r_try)
+            cuts_total += cuts
+        if (cuts and not reuse_jacobian) or (reuse_jacobian and (cuts or rn_try > reuse_ratio * rn)):
+            r_try = system.residual(q_try, True)  # fresh Jacobian at the accepted point
+            rn_try = system.residual_norm(r_try)
         step = system.step_norm(a * dq)
         q, r, rn = q_try, r_try, rn_try
     return NewtonResult(q, False, max_iterations, rn, step, cuts_total,

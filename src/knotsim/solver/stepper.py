@@ -64,7 +64,9 @@ class SolverSettings:
     - ``grow_after``: consecutive easy steps (at most ``easy_iterations`` iterations) before the step
       doubles back towards ``dt``;
     - ``linear_solver``: ``"auto"`` (banded when possible), ``"banded"``, ``"sparse"``;
-    - ``predictor``: initial Newton guess, ``"velocity"`` (``q_n + dt v_n``) or ``"previous"``.
+    - ``predictor``: initial Newton guess, ``"velocity"`` (``q_n + dt v_n``) or ``"previous"``;
+    - ``jacobian_reuse``: modified Newton, keeping the factorised Jacobian while iterations converge
+      fast (see :func:`~knotsim.solver.newton.newton_solve`).
     """
 
     dt: float = 1e-3
@@ -79,6 +81,7 @@ class SolverSettings:
     easy_iterations: int = 4
     linear_solver: str = "auto"
     predictor: str = "velocity"
+    jacobian_reuse: bool = True
 
     def validate(self) -> None:
         if not (isinstance(self.dt, int | float) and self.dt > 0 and math.isfinite(self.dt)):
@@ -220,6 +223,11 @@ class Stepper:
         self._sparse = SparseSolver(blocks=np.append(model.node_dof, model.n_dofs))
         self._pattern_key = None
         self._pattern_id = 0
+        self._elastic_pattern = None
+        self._needs_factor = True
+        self._active = None
+        #: Number of matrix factorisations so far.
+        self.factorizations = 0
         self.last_solver = ""
         #: Accumulated wall time (s) in force/energy evaluation, Jacobian assembly and linear solves.
         self.timers = {"forces": 0.0, "assembly": 0.0, "linear_solve": 0.0}
@@ -253,15 +261,37 @@ class Stepper:
             asm.banded_constrain(ab, row0, kl, ku, fixed)
             symmetric = all(b is None or d.size == 0 for d, b in zip(inter_dofs, inter_blocks, strict=True))
             self._system = ("banded", ab, kl, ku, symmetric)
+            self._needs_factor = True
             self.last_solver = "banded"
             return
         key = tuple((d.shape, hash(d.tobytes())) for d in inter_dofs)
         if key != self._pattern_key:
-            indptr, indices = asm.csc_pattern(n, self._elastic_groups + inter_dofs)
+            if self._elastic_pattern is None:
+                indptr_e, indices_e = asm.csc_pattern(n, self._elastic_groups)
+                self._elastic_pattern = (indptr_e, indices_e, asm.csc_diag_map(indptr_e, indices_e, n),
+                                         asm.csc_block_map(indptr_e, indices_e, m.stretch_dofs),
+                                         asm.csc_block_map(indptr_e, indices_e, m.bend_dofs))
+            indptr_e, indices_e, diag_e, stretch_e, bend_e = self._elastic_pattern
+            extra = [d for d in inter_dofs if d.size]
+            if extra:
+                width = max(d.shape[1] for d in extra)
+                if all(d.shape[1] == width for d in extra):
+                    stacked = np.concatenate(extra).astype(np.int64)
+                    indptr, indices, remap = asm.merge_pattern(n, indptr_e, indices_e, stacked)
+                else:  # blocks of different sizes: general (slower) path
+                    indptr, indices = asm.csc_pattern(n, self._elastic_groups + extra)
+                    remap = None
+            else:
+                indptr, indices, remap = indptr_e, indices_e, np.arange(indices_e.size)
             self._indptr, self._indices = indptr, indices
-            self._diag_slots = asm.csc_diag_map(indptr, indices, n)
-            self._stretch_slots = asm.csc_block_map(indptr, indices, m.stretch_dofs)
-            self._bend_slots = asm.csc_block_map(indptr, indices, m.bend_dofs)
+            if remap is not None:
+                self._diag_slots = remap[diag_e]
+                self._stretch_slots = remap[stretch_e]
+                self._bend_slots = remap[bend_e]
+            else:
+                self._diag_slots = asm.csc_diag_map(indptr, indices, n)
+                self._stretch_slots = asm.csc_block_map(indptr, indices, m.stretch_dofs)
+                self._bend_slots = asm.csc_block_map(indptr, indices, m.bend_dofs)
             self._inter_slots = [asm.csc_block_map(indptr, indices, d) if d.size else None for d in inter_dofs]
             self._pattern_key = key
             self._pattern_id += 1
@@ -274,14 +304,23 @@ class Stepper:
                 asm.csc_add_blocks(data, slots, blocks)
         asm.csc_constrain(self._indptr, self._indices, data, fixed)
         self._system = ("sparse", data)
+        self._needs_factor = True
         self.last_solver = "sparse"
 
     def _solve(self, rhs: np.ndarray) -> np.ndarray:
-        if self._system[0] == "banded":
-            _, ab, kl, ku, symmetric = self._system
-            return self._banded.solve(ab, kl, ku, rhs, symmetric)
-        return self._sparse.solve(self.model.n_dofs, self._indptr, self._indices, self._system[1], rhs,
-                                  self._pattern_id)
+        """Solve with the last assembled Jacobian, factorising it first if it is new."""
+        if self._needs_factor:
+            if self._system[0] == "banded":
+                _, ab, kl, ku, symmetric = self._system
+                self._banded.factorize(ab, kl, ku, symmetric)
+                self._active = self._banded
+            else:
+                self._sparse.factorize(self.model.n_dofs, self._indptr, self._indices, self._system[1],
+                                       self._pattern_id)
+                self._active = self._sparse
+            self._needs_factor = False
+            self.factorizations += 1
+        return self._active.solve(rhs)
 
     # -- stepping -------------------------------------------------------------------------
     def step(self, state_in: State, state_out: State, control, dt: float) -> StepResult:
@@ -299,7 +338,8 @@ class Stepper:
         q0[fixed_dofs] = fixed_vals
         system = _StepSystem(self, state_in, dt, fixed, self.gravity_force + f_bc, static=False)
         try:
-            res = newton_solve(system, q0, self.settings.max_iterations, self.settings.line_search)
+            res = newton_solve(system, q0, self.settings.max_iterations, self.settings.line_search,
+                               reuse_jacobian=self.settings.jacobian_reuse)
         except LinearSolveError as exc:
             raise StepFailure(str(exc)) from exc
         if not res.converged:
