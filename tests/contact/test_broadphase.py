@@ -91,8 +91,9 @@ def reference_distance(p0, p1, q0, q1):
     return np.min(cands, axis=0)
 
 
-def brute_force_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_closed, edge_radius, extra,
-                      return_margin=False):
+def brute_force_pairs(
+    q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_closed, edge_radius, extra, return_margin=False
+):
     """O(N^2) reference with the same signature as ``find_candidate_pairs``.
 
     With ``return_margin`` returns ``(pairs, ambiguous)``, ``ambiguous`` being the set of
@@ -115,8 +116,10 @@ def brute_force_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_close
         return pairs
     scale = np.max(np.abs(q)) if len(q) else 0.0
     tol = 1e-9 * cut + 1e-12 * scale
-    ambiguous = {(int(x), int(y)) for x, y in zip(a[np.abs(dist - cut) <= tol], b[np.abs(dist - cut) <= tol],
-                                                  strict=True)}
+    ambiguous = {
+        (int(x), int(y))
+        for x, y in zip(a[np.abs(dist - cut) <= tol], b[np.abs(dist - cut) <= tol], strict=True)
+    }
     return pairs, ambiguous
 
 
@@ -138,7 +141,9 @@ def check_against_reference(args, extra):
                 di = min(di, int(rod_n_edges[edge_rod[a]]) - di)
             if di < 3:
                 continue
-        ends = [tuple(float(x) for x in q[edge_dofs[e, k] : edge_dofs[e, k] + 3]) for e in (a, b) for k in (0, 1)]
+        ends = [
+            tuple(float(x) for x in q[edge_dofs[e, k] : edge_dofs[e, k] + 3]) for e in (a, b) for k in (0, 1)
+        ]
         if segment_distance(*ends) < edge_radius[a] + edge_radius[b] + extra:
             exact.add((a, b))
     assert got_set == exact, f"grid mismatch {sorted(got_set ^ exact)[:10]}"
@@ -231,9 +236,11 @@ def test_three_apart_rule_closed_rod():
 
 
 def test_different_rods_always_candidates_single_edge_rods():
-    rods = [(np.array([[0, 0, 0], [1e-3, 0, 0]]), False, 1e-3),
-            (np.array([[0, 0, 0], [1e-3, 0, 0]]), False, 1e-3),  # coincident
-            (np.array([[0, 2e-3, 0], [1e-3, 2e-3, 0]]), False, 1e-3)]  # parallel, 2 mm away
+    rods = [
+        (np.array([[0, 0, 0], [1e-3, 0, 0]]), False, 1e-3),
+        (np.array([[0, 0, 0], [1e-3, 0, 0]]), False, 1e-3),  # coincident
+        (np.array([[0, 2e-3, 0], [1e-3, 2e-3, 0]]), False, 1e-3),
+    ]  # parallel, 2 mm away
     got = find_candidate_pairs(*build(rods), 0.0)
     # 2 mm apart with cut-off exactly 2 mm is not a candidate (strict inequality)
     assert [tuple(p) for p in got] == [(0, 1)]
@@ -283,8 +290,9 @@ def test_degenerate_and_dense_tangle():
 
 def test_segment_distance_special_cases():
     def d(p0, p1, q0, q1):
-        return segment_distance(tuple(map(float, p0)), tuple(map(float, p1)),
-                                tuple(map(float, q0)), tuple(map(float, q1)))
+        return segment_distance(
+            tuple(map(float, p0)), tuple(map(float, p1)), tuple(map(float, q0)), tuple(map(float, q1))
+        )
 
     assert d((0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)) == pytest.approx(1.0)  # parallel overlap
     assert d((0, 0, 0), (1, 0, 0), (2, 1, 0), (3, 1, 0)) == pytest.approx(np.sqrt(2))  # parallel apart

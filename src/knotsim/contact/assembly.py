@@ -105,10 +105,12 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
         if mu > 0.0:
             for m in range(12):
                 pp[m] = q_prev[pair_dofs[k, m]]
-                for n in range(12):
-                    dfc[m, n] = -kc * hess[m, n]
-            edge_edge_beta_gradients(p, bi, bj, case, dbi, dbj)
-            friction_pair(p, pp, dt, mu, nu, fc, dfc, bi, bj, dbi, dbj, ffr, jfr)
+            if want_jacobian:
+                for m in range(12):
+                    for n in range(12):
+                        dfc[m, n] = -kc * hess[m, n]
+                edge_edge_beta_gradients(p, bi, bj, case, dbi, dbj)
+            friction_pair(p, pp, dt, mu, nu, fc, dfc, bi, bj, dbi, dbj, ffr, jfr, want_jacobian)
             for m in range(12):
                 pair_ff[k, m] = ffr[m]
                 residual[pair_dofs[k, m]] -= ffr[m]

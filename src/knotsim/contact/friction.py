@@ -63,7 +63,8 @@ def slip_functions(s, nu):
 
 
 @njit(cache=True)
-def friction_pair(p, p_prev, dt, mu, nu, fc, dfc, beta_i, beta_j, dbeta_i, dbeta_j, force_out, jac_out):
+def friction_pair(p, p_prev, dt, mu, nu, fc, dfc, beta_i, beta_j, dbeta_i, dbeta_j, force_out, jac_out,
+                  want_jacobian=True):
     """Friction force on the 4 nodes of a contact pair and its exact Jacobian.
 
     Parameters
@@ -79,11 +80,14 @@ def friction_pair(p, p_prev, dt, mu, nu, fc, dfc, beta_i, beta_j, dbeta_i, dbeta
     dbeta_i, dbeta_j : (12,) float64, ``∂β/∂p`` (1/m) for the active case.
     force_out : (12,) float64 output, friction force (N).
     jac_out : (12, 12) float64 output, ``∂force_out/∂p`` (N/m) at fixed ``p_prev``, ``dt``.
+    want_jacobian : when ``False`` only ``force_out`` is computed (``dfc``, ``dbeta_*`` and
+        ``jac_out`` are not touched), for residual-only evaluations.
     """
     for r in range(12):
         force_out[r] = 0.0
-        for m in range(12):
-            jac_out[r, m] = 0.0
+        if want_jacobian:
+            for m in range(12):
+                jac_out[r, m] = 0.0
     f0 = v3.load(fc, 0)
     f1 = v3.load(fc, 3)
     f2 = v3.load(fc, 6)
@@ -112,6 +116,8 @@ def friction_pair(p, p_prev, dt, mu, nu, fc, dfc, beta_i, beta_j, dbeta_i, dbeta
     for a in range(4):
         for r in range(3):
             force_out[3 * a + r] = -sgn[a] * fn[a] * w[r]
+    if not want_jacobian:
+        return
     # unit node-force directions (zero subgradient for a zero node force)
     fh = (
         v3.scale(1.0 / fn[0] if fn[0] > 0.0 else 0.0, f0),
