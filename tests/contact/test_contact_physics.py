@@ -18,47 +18,17 @@ import pytest
 
 from knotsim.bc import BoundaryConditions
 from knotsim.contact.model import ContactInteraction, ContactSettings
-from knotsim.rods import Model, RodSpec
+from knotsim.rods import Model
 from knotsim.simulation import Simulation
 from knotsim.solver.stepper import SolverSettings
-
-H = 1e-3  # rod radius, m
-DELTA = 5e-4
-
-
-def rod(points, E=1e7, name=""):
-    return RodSpec(np.asarray(points, float), radius=H, youngs_modulus=E, density=1000.0, name=name)
-
-
-def line(a, b, n):
-    s = np.linspace(0.0, 1.0, n)[:, None]
-    return np.asarray(a, float)[None, :] * (1 - s) + np.asarray(b, float)[None, :] * s
+from knotsim.validation.contact import DELTA, H, friction_run, line, pressed_crossing_rods, rod
 
 
 def test_pressed_crossing_rods_no_penetration_and_equal_opposite_reactions():
-    L = 0.06
-    n = 16  # even: the crossing is in the middle of an edge
-    a = line([-L / 2, 0, 0], [L / 2, 0, 0], n)
-    b = line([0, -L / 2, 2 * H + 5e-4], [0, L / 2, 2 * H + 5e-4], n)
-    m = Model([rod(a, E=1e6, name="A"), rod(b, E=1e6, name="B")], damping=0.05)
-    bcs = BoundaryConditions(m)
-    bcs.clamp("A0", rod="A", nodes=[0, 1])
-    bcs.clamp("A1", rod="A", nodes=[-2, -1])
-    speed, t_press = 0.01, 0.15  # B's ends go down 1.5 mm: 1 mm past first contact
-
-    def press(t):
-        return [0.0, 0.0, -speed * min(t, t_press)]
-
-    bcs.move("B0", rod="B", nodes=[0, 1], path=press)
-    bcs.move("B1", rod="B", nodes=[-2, -1], path=press)
-    ci = ContactInteraction(m, ContactSettings())
-    sim = Simulation(m, bcs, SolverSettings(dt=2e-3), interactions=[ci])
-    log = sim.run(0.6, progress=False)  # pressing ends at 0.15 s; damped creep to rest after
+    log, fa, fb = pressed_crossing_rods()
     pen = log["max_penetration_ratio"].max()
     assert pen <= 0.01, pen
     last = log.iloc[-1]
-    fa = np.array([last[f"A0_f{c}"] + last[f"A1_f{c}"] for c in "xyz"])
-    fb = np.array([last[f"B0_f{c}"] + last[f"B1_f{c}"] for c in "xyz"])
     # reactions = forces of the clamps on the rods: B's clamps push B down onto A, A's push A up
     assert fb[2] < -1e-4
     np.testing.assert_allclose(fa, -fb, rtol=1e-4, atol=1e-6 * abs(fb[2]))
@@ -66,35 +36,6 @@ def test_pressed_crossing_rods_no_penetration_and_equal_opposite_reactions():
     assert last["contact_force_total"] == pytest.approx(-fb[2], rel=1e-3)
     assert last["n_contacts"] >= 1
     assert 0.0 < last["min_gap"] < DELTA
-
-
-def friction_run(ratio, dt, mu=0.3, N=1e-3, T=0.08, t_pull=0.02):
-    """Rod B (10 nodes, 2 cm, along y) lying across the fixed rod A (along x, all nodes clamped),
-    loaded by N (down) and, from ``t_pull``, pulled along A by ``F = ratio μ N``. Returns
-    (fitted acceleration for t > t_pull + 10 ms, mean velocity at the end, theory, log)."""
-    a = line([-0.06, 0, 0], [0.06, 0, 0], 25)
-    b = line([0, -0.01, 2 * H + 2e-4], [0, 0.01, 2 * H + 2e-4], 10)
-    m = Model([rod(a, name="A"), rod(b, name="B")])
-    bcs = BoundaryConditions(m)
-    bcs.clamp("A", rod="A", nodes=list(range(25)))
-    bcs.force("load", rod="B", nodes=list(range(10)), force=[0.0, 0.0, -N])
-    F = ratio * mu * N
-    bcs.force("pull", rod="B", nodes=list(range(10)), force=[F, 0.0, 0.0], start=t_pull)
-    ci = ContactInteraction(m, ContactSettings(mu=mu))
-    sim = Simulation(m, bcs, SolverSettings(dt=dt), interactions=[ci])
-    nb = m.node_dof[m.rod_node_start[1]:]
-    ts, vx = [], []
-
-    def cb(s, _res):
-        ts.append(s.state.time)
-        vx.append(float(np.mean(s.state.v[nb])))
-
-    log = sim.run(T, progress=False, callback=cb)
-    ts, vx = np.array(ts), np.array(vx)
-    sel = ts > t_pull + 0.01
-    acc = np.polyfit(ts[sel], vx[sel], 1)[0]
-    theory = (F - mu * N) / m.mass[nb].sum()
-    return acc, vx[-1], theory, log
 
 
 @pytest.mark.parametrize("dt", [5e-4, 1e-3, 2e-3])

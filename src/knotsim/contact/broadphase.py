@@ -11,7 +11,8 @@ Algorithm (linear in the number of edges for bounded density):
    ``edge_radius[e] + extra / 2`` (plus a few ulps of slack). Two edges closer than their cut-off
    always have overlapping boxes.
 2. Boxes are put into a uniform grid of cubic cells (edge ``h`` about the typical box size). Each box
-   is registered in every cell it overlaps; cells are hashed by sorting the packed cell keys.
+   is registered in every cell it overlaps; entries are grouped by cell with a counting sort on
+   the dense cell index (or, when the occupied region is sparse, ``np.argsort`` of packed keys).
    Boxes much larger than the cells ("big" edges, more than ``_MAX_CELLS_PER_EDGE`` cells) are not
    registered and are instead tested against every edge, so one very long edge cannot blow up
    memory or the cell size.
@@ -19,6 +20,11 @@ Algorithm (linear in the number of edges for bounded density):
    holds the lower corner of the intersection of the two boxes, so each pair is seen once without
    de-duplication.
 4. Surviving pairs that are not same-rod neighbours get an exact segment-segment distance test.
+5. The pairs are put in lexicographic order by two stable counting sorts (linear).
+
+Cost: O(n_edges + number of box-overlapping pairs) for the usual case of edges of similar size;
+everything in one cell degrades gracefully to the O(n^2) all-pairs test, still exact.
+Non-finite coordinates or radii raise ``ValueError``.
 
 The result is exactly the set of pairs (not excluded) for which :func:`segment_distance` is below
 the cut-off; the grid only decides which pairs are tested. All kernels are numba

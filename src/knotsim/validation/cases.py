@@ -12,6 +12,7 @@ from collections.abc import Callable
 import numpy as np
 
 from knotsim.validation.cantilever import LARGE_DEFLECTION_TIP, tip_position
+from knotsim.validation.contact import contact_cases
 from knotsim.validation.helix import helix_equilibrium, helix_reference
 
 
@@ -68,7 +69,8 @@ def helix(quick: bool = False) -> list[dict]:
 
 
 #: Registered cases: name -> function(quick) -> rows.
-CASES: dict[str, Callable[[bool], list[dict]]] = {"cantilever": cantilever, "helix": helix}
+CASES: dict[str, Callable[[bool], list[dict]]] = {"cantilever": cantilever, "helix": helix,
+                                                  "contact": contact_cases}
 
 
 def run_cases(names=None, quick: bool = False) -> list[dict]:

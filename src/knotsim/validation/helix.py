@@ -12,8 +12,8 @@ import numpy as np
 
 from knotsim.bc import BoundaryConditions
 from knotsim.rods import Model, RodSpec
-from knotsim.solver.static import solve_static
 from knotsim.solver.state import initial_state
+from knotsim.solver.static import solve_static
 
 
 def helix_reference(kappa: float, tau: float) -> tuple[float, float]:
