@@ -25,6 +25,13 @@ class NonlinearSystem(Protocol):
         """Step norm in units of ``step_tol`` (1 = tolerance)."""
 
 
+def _acceptable(a: float, rn_try: float, rn: float, merit: float, merit0: float, slope: float) -> bool:
+    """Line-search test: the residual norm fell, or the potential fell (Armijo with ``slope``)."""
+    if rn_try <= (1.0 - 1e-4 * a) * rn:
+        return True
+    return slope < 0.0 and bool(np.isfinite(merit)) and merit <= merit0 + 1e-4 * a * slope
+
+
 @dataclass
 class NewtonResult:
     """Outcome of :func:`newton_solve`.
@@ -82,14 +89,8 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
         rn_try = system.residual_norm(r_try)
         cuts = 0
 
-        def acceptable(a, rn_try):
-            if rn_try <= (1.0 - 1e-4 * a) * rn:
-                return True
-            m = system.merit
-            return slope < 0.0 and np.isfinite(m) and m <= merit0 + 1e-4 * a * slope
-
         if line_search:
-            while not acceptable(a, rn_try) and cuts < max_cuts:
+            while not _acceptable(a, rn_try, rn, system.merit, merit0, slope) and cuts < max_cuts:
                 a *= 0.5
                 cuts += 1
                 q_try = q + a * dq
