@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from numba import njit
 
+from knotsim import _vec3 as v3
+
 
 @njit(inline="always", cache=True)
 def zmap(a):
@@ -63,3 +65,18 @@ def set_block(H, r0, c0, s, a, b):
     for p in range(3):
         for k in range(3):
             H[r0 + p, c0 + k] += s * a[p] * b[k]
+
+
+@njit(inline="always", cache=True)
+def stencil_geometry(bend_edges, tangents, lengths, s):
+    """Geometry of stencil ``s``: ``(e, f, t_e, t_f, |e|, |f|, chi, t~, kb)`` with
+    ``chi = 1 + t_e . t_f``, ``t~ = (t_e + t_f)/chi`` and the curvature binormal
+    ``kb = 2 t_e x t_f / chi``."""
+    e = bend_edges[s, 0]
+    f = bend_edges[s, 1]
+    t0 = (tangents[e, 0], tangents[e, 1], tangents[e, 2])
+    t1 = (tangents[f, 0], tangents[f, 1], tangents[f, 2])
+    chi = 1.0 + v3.dot(t0, t1)
+    tt = v3.scale(1.0 / chi, v3.add(t0, t1))
+    kb = v3.scale(2.0 / chi, v3.cross(t0, t1))
+    return e, f, t0, t1, lengths[e], lengths[f], chi, tt, kb

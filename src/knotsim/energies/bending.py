@@ -23,18 +23,7 @@ import numpy as np
 from numba import njit
 
 from knotsim import _vec3 as v3
-from knotsim.energies._stencil import hessian_to_stencil, scatter_gradient, set_block
-
-
-@njit(inline="always", cache=True)
-def _skew_block(H, r0, c0, s, a):
-    """``H[r0:r0+3, c0:c0+3] += s [a]_x`` (``[a]_x b = a x b``)."""
-    H[r0, c0 + 1] += -s * a[2]
-    H[r0, c0 + 2] += s * a[1]
-    H[r0 + 1, c0] += s * a[2]
-    H[r0 + 1, c0 + 2] += -s * a[0]
-    H[r0 + 2, c0] += -s * a[1]
-    H[r0 + 2, c0 + 1] += s * a[0]
+from knotsim.energies._stencil import hessian_to_stencil, scatter_gradient, set_block, stencil_geometry
 
 
 @njit(inline="always", cache=True)
@@ -76,7 +65,7 @@ def _curvature_hessian(H, kap, sgn, n0, n1, chi, t0, t1, tt, kb, dt, me, mf, me_
             val = -kap * s / chi * ((1.0 if p == k else 0.0) + t0[p] * t1[k])
             val += s * (2.0 * kap * tt[p] * tt[k] - sgn * c1[p] * tt[k] + sgn * tt[p] * c0[k])
             H[p, 4 + k] += val
-    _skew_block(H, 0, 4, -sgn * s, dt)
+    v3.skew_add(H, 0, 4, -sgn * s, dt)
     for p in range(3):
         for k in range(3):
             H[4 + k, p] = H[p, 4 + k]
@@ -118,19 +107,11 @@ def bending_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2, EI, voro
     Hz = np.zeros((8, 8))
     energy = 0.0
     for s in range(nb):
-        e = bend_edges[s, 0]
-        f = bend_edges[s, 1]
-        t0 = (tangents[e, 0], tangents[e, 1], tangents[e, 2])
-        t1 = (tangents[f, 0], tangents[f, 1], tangents[f, 2])
-        n0 = lengths[e]
-        n1 = lengths[f]
+        e, f, t0, t1, n0, n1, chi, tt, kb = stencil_geometry(bend_edges, tangents, lengths, s)
         m1e = (m1[e, 0], m1[e, 1], m1[e, 2])
         m2e = (m2[e, 0], m2[e, 1], m2[e, 2])
         m1f = (m1[f, 0], m1[f, 1], m1[f, 2])
         m2f = (m2[f, 0], m2[f, 1], m2[f, 2])
-        chi = 1.0 + v3.dot(t0, t1)
-        tt = v3.scale(1.0 / chi, v3.add(t0, t1))
-        kb = v3.scale(2.0 / chi, v3.cross(t0, t1))
         d1t = v3.scale(1.0 / chi, v3.add(m1e, m1f))
         d2t = v3.scale(1.0 / chi, v3.add(m2e, m2f))
         k1 = 0.5 * v3.dot(kb, v3.add(m2e, m2f))

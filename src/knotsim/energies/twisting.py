@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from knotsim import _vec3 as v3
-from knotsim.energies._stencil import hessian_to_stencil, scatter_gradient, set_block
+from knotsim.energies._stencil import hessian_to_stencil, scatter_gradient, set_block, stencil_geometry
 
 
 @njit(cache=True)
@@ -28,15 +28,7 @@ def twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, ref_twist, GJ, 
     Hz = np.zeros((8, 8))
     energy = 0.0
     for s in range(nb):
-        e = bend_edges[s, 0]
-        f = bend_edges[s, 1]
-        t0 = (tangents[e, 0], tangents[e, 1], tangents[e, 2])
-        t1 = (tangents[f, 0], tangents[f, 1], tangents[f, 2])
-        n0 = lengths[e]
-        n1 = lengths[f]
-        chi = 1.0 + v3.dot(t0, t1)
-        tt = v3.scale(1.0 / chi, v3.add(t0, t1))
-        kb = v3.scale(2.0 / chi, v3.cross(t0, t1))
+        _, _, t0, t1, n0, n1, chi, tt, kb = stencil_geometry(bend_edges, tangents, lengths, s)
         m = q[bend_dofs[s, 7]] - q[bend_dofs[s, 3]] + ref_twist[s]
         twist_out[s] = m
         dm = m - twist_bar[s]
@@ -68,21 +60,12 @@ def twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, ref_twist, GJ, 
                 for k in range(3):
                     Hz[p, 4 + k] += -s2 * kb[p] * tt[k]
             w = 2.0 / chi
-            Hz[0, 5] += -s2 * w * t0[2]
-            Hz[0, 6] += s2 * w * t0[1]
-            Hz[1, 4] += s2 * w * t0[2]
-            Hz[1, 6] += -s2 * w * t0[0]
-            Hz[2, 4] += -s2 * w * t0[1]
-            Hz[2, 5] += s2 * w * t0[0]
+            v3.skew_add(Hz, 0, 4, s2 * w, t0)
+            # f-e block = transpose (the transpose of [t0]_x is -[t0]_x)
             for p in range(3):
                 for k in range(3):
                     Hz[4 + k, p] += -s2 * kb[p] * tt[k]
-            Hz[5, 0] += -s2 * w * t0[2]
-            Hz[6, 0] += s2 * w * t0[1]
-            Hz[4, 1] += s2 * w * t0[2]
-            Hz[6, 1] += -s2 * w * t0[0]
-            Hz[4, 2] += -s2 * w * t0[1]
-            Hz[5, 2] += s2 * w * t0[0]
+            v3.skew_add(Hz, 4, 0, -s2 * w, t0)
             hessian_to_stencil(Hz, coef, hess[s], accumulate)
         for p in range(8):
             gz[p] *= dm
