@@ -282,3 +282,23 @@ def test_contact_from_config():
     assert exc.value.field == "contact.delt"
     with pytest.raises(ConfigError):
         contact_from_config(m, {"mu": {"A": 0.5}})
+
+
+def test_finely_meshed_straight_rod_has_no_self_contact():
+    """Edges i and i + 3 of a straight rod with l = 1 mm and h = 2 mm are closer than 2h; they must
+    not count as contact (same rule as the knot generator: (|i-j| - 1) l >= 1.5 d)."""
+    from knotsim.contact.model import ContactInteraction, ContactSettings
+    from knotsim.rods import Model, RodSpec
+    from knotsim.solver.state import initial_state
+
+    x = np.zeros((201, 3))
+    x[:, 0] = np.linspace(0.0, 0.2, 201)
+    m = Model([RodSpec(x, radius=2e-3, youngs_modulus=1e6, density=1000.0)])
+    ci = ContactInteraction(m, ContactSettings())
+    st = initial_state(m)
+    ci.begin_step(st, 1e-3)
+    assert ci._rod_min_gap[0] == 7
+    r = np.zeros(m.n_dofs)
+    energy, _ = ci.evaluate(st.q, st.q, 1e-3, r, True)
+    assert energy == 0.0 and np.all(r == 0.0)
+    assert ci.pairs.shape[0] == 0 or np.all(np.abs(np.diff(ci.pairs, axis=1)) >= 7)
