@@ -4,6 +4,14 @@ from knotsim.errors import ConfigError, GeometryError, KnotsimError, Penetration
 
 __version__ = "0.1.0"
 
+
+def load_study(study_dir):
+    """Results table of a study directory as a pandas DataFrame (see :mod:`knotsim.study`)."""
+    from knotsim.study import load_study as _load
+
+    return _load(study_dir)
+
+
 __all__ = [
     "ConfigError",
     "GeometryError",
@@ -11,4 +19,5 @@ __all__ = [
     "PenetrationError",
     "SimulationError",
     "__version__",
+    "load_study",
 ]

@@ -268,5 +268,16 @@ def render(run_dir: Path, frames: str, outdir: Path | None, view: str, size: str
         click.echo(str(p))
 
 
+def _register_subcommands() -> None:
+    """Commands owned by other packages (their heavy imports happen inside the commands)."""
+    from knotsim.study.cli import animate, report, study
+
+    for command in (study, report, animate):
+        main.add_command(command)
+
+
+_register_subcommands()
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

@@ -1,0 +1,371 @@
+"""Markdown report of a study: tables and PNG plots (matplotlib, Agg).
+
+``write_report(STUDY_DIR)`` writes ``STUDY_DIR/report.md`` and its figures in
+``STUDY_DIR/report_figures/``:
+
+- summary (cases, outcomes, wall time, provenance) and the swept parameters;
+- a results table (parameters, outcome, wall time and the main metrics) and the failed cases;
+- for a study with the MAE259B shape (a knot axis with granny and reef, a friction axis ``mu``):
+  ``F h²/EI`` against time for granny and reef at μ = 0.1 and 0.5 (from each case's
+  ``log.parquet``, column ``F_norm``), and the mean ``F h²/EI`` (metric ``F_norm_mean``) against μ
+  beside the published values (physics-notes section 5);
+- generic plots: each numeric metric against each swept parameter, one line per combination of
+  the other swept parameters (mean and spread over repeats).
+
+Everything adapts to the columns that exist; a study with no completed case still gets a report.
+Figures are 640 x 400 pixels (6.4 x 4.0 in at 100 dpi).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["MAE259B_PUBLISHED", "write_report"]
+
+#: Published mean F h²/EI over a 13 s pull (MAE259B; physics-notes section 5), by knot, at μ = 0.1 ... 0.5.
+MAE259B_PUBLISHED = {
+    "mu": [0.1, 0.2, 0.3, 0.4, 0.5],
+    "granny": [0.264, 0.297, 0.519, 0.576, 0.641],
+    "reef": [0.367, 0.470, 0.538, 0.655, 0.834],
+}
+
+FIGSIZE = (6.4, 4.0)  # in
+DPI = 100
+_NOT_METRICS = {"case_id", "kind", "outcome", "error", "wall_time", "traceback", "case_dir", "repeat"}
+_MAX_TABLE_METRICS = 8
+
+
+# ------------------------------------------------------------------------------------------ helpers
+def _md_cell(v) -> str:
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return ""
+    try:
+        import pandas as pd
+
+        if v is pd.NA:
+            return ""
+    except ImportError:  # pragma: no cover
+        pass
+    if isinstance(v, bool | np.bool_):
+        return "yes" if v else "no"
+    if isinstance(v, int | np.integer):
+        return str(int(v))
+    if isinstance(v, float | np.floating):
+        return f"{float(v):.4g}"
+    return str(v).replace("|", "\\|").replace("\n", " ")
+
+
+def _md_table(df, columns: list[str]) -> str:
+    head = "| " + " | ".join(c.replace("|", "\\|") for c in columns) + " |"
+    sep = "|" + "|".join("---" for _ in columns) + "|"
+    rows = ["| " + " | ".join(_md_cell(v) for v in rec) + " |" for rec in df[columns].itertuples(index=False)]
+    return "\n".join([head, sep, *rows])
+
+
+def _slug(s: str) -> str:
+    return re.sub(r"[^A-Za-z0-9]+", "_", s).strip("_")[:60] or "x"
+
+
+def _numeric(series) -> bool:
+    import pandas as pd
+
+    return pd.api.types.is_numeric_dtype(series) and not pd.api.types.is_bool_dtype(series)
+
+
+def _figure():
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=FIGSIZE, dpi=DPI)
+    return fig, ax
+
+
+def _save(fig, path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+
+
+def _param_columns(study_dir: Path, df) -> list[str]:
+    """Swept parameter columns, from study.toml when it parses, else the columns between ``kind``
+    and ``outcome``."""
+    try:
+        from knotsim.study.spec import load_study_spec
+
+        spec = load_study_spec(study_dir / "study.toml")
+        cols = [k for k in spec.swept_keys if k in df.columns]
+        if spec.repeats > 1 and "repeat" in df.columns:
+            cols.append("repeat")
+        return cols
+    except Exception:
+        cols = list(df.columns)
+        if "kind" in cols and "outcome" in cols:
+            return cols[cols.index("kind") + 1: cols.index("outcome")]
+        return []
+
+
+def _metric_columns(df, params: list[str]) -> list[str]:
+    """Numeric metric columns that vary over the completed cases (wall time last)."""
+    done = df[df["outcome"] == "completed"] if "outcome" in df.columns else df
+    out = []
+    for c in df.columns:
+        if c in _NOT_METRICS or c in params or not _numeric(df[c]):
+            continue
+        vals = done[c].dropna().astype(float)
+        if len(vals) and np.ptp(vals.to_numpy()) > 0:
+            out.append(c)
+    return sorted(out, key=_priority)
+
+
+def _priority(name: str) -> int:
+    """Strength metrics first, solver statistics and timings last."""
+    if re.search(r"F_norm|traction|strength|force|slip", name):
+        return 0
+    if re.search(r"wall_time|iterations|steps|failures|attempts|contact\.|topology\.", name):
+        return 2
+    return 1
+
+
+def _is_numeric_values(values) -> bool:
+    return all(isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool) for v in values)
+
+
+# ------------------------------------------------------------------------------------------ MAE259B
+def _find_knot_mu(df, params: list[str]) -> tuple[str | None, str | None]:
+    knot = mu = None
+    for p in params:
+        leaf = p.rsplit(".", 1)[-1]
+        if leaf == "knot" or p == "knot":
+            vals = [str(v).lower() for v in df[p].dropna().unique()]
+            if any("granny" in v for v in vals) and any("reef" in v for v in vals):
+                knot = p
+        elif leaf == "mu":
+            mu = p
+    return knot, mu
+
+
+def _knot_label(name) -> str | None:
+    n = str(name).lower()
+    return "granny" if "granny" in n else "reef" if "reef" in n else None
+
+
+def _traction_series(study_dir: Path, row):
+    """(time s, F h²/EI) of a case from its log.parquet, or None."""
+    import pandas as pd
+
+    if not isinstance(row.get("case_dir"), str):
+        return None
+    path = study_dir / row["case_dir"] / "log.parquet"
+    if not path.is_file():
+        return None
+    try:
+        log = pd.read_parquet(path)
+    except Exception:
+        return None
+    for col in ("F_norm", "F_h2_EI", "traction_norm"):
+        if col in log.columns and "time" in log.columns:
+            return log["time"].to_numpy(float), log[col].to_numpy(float)
+    return None
+
+
+def _mae259b(study_dir: Path, df, params, figdir: Path) -> list[str]:
+    knot, mu = _find_knot_mu(df, params)
+    if knot is None or mu is None:
+        return []
+    lines = ["## Reef against granny (MAE259B)", ""]
+    done = df[df["outcome"] == "completed"].copy()
+    done["_knot"] = done[knot].map(_knot_label)
+    done = done[done["_knot"].notna()]
+    # time series at mu = 0.1 and 0.5
+    fig, ax = _figure()
+    drawn = 0
+    styles = {"granny": "tab:blue", "reef": "tab:red"}
+    for m, ls in ((0.1, "-"), (0.5, "--")):
+        for k in ("granny", "reef"):
+            sel = done[(done["_knot"] == k) & np.isclose(done[mu].astype(float), m)]
+            if sel.empty:
+                continue
+            series = _traction_series(study_dir, sel.iloc[0])
+            if series is None:
+                continue
+            ax.plot(series[0], series[1], ls, color=styles[k], label=f"{k}, μ = {m:g}")
+            drawn += 1
+    if drawn:
+        ax.set_xlabel("pull time t (s)")
+        ax.set_ylabel("F h²/EI")
+        ax.set_title("Traction against time")
+        ax.legend()
+        ax.grid(alpha=0.3)
+        _save(fig, figdir / "mae259b_traction_time.png")
+        lines += ["![F h²/EI against time](report_figures/mae259b_traction_time.png)", ""]
+    else:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+        lines += ["(no traction time series (log.parquet with F_norm) for μ = 0.1 or 0.5)", ""]
+    # mean traction against mu, next to the published values
+    metric = next((c for c in ("F_norm_mean", "mean_F_norm", "F_h2_EI_mean") if c in done.columns), None)
+    fig, ax = _figure()
+    pub = MAE259B_PUBLISHED
+    for k in ("granny", "reef"):
+        ax.plot(pub["mu"], pub[k], "o--", color=styles[k], mfc="none", label=f"{k}, published")
+    table_rows = []
+    if metric is not None:
+        for k in ("granny", "reef"):
+            sel = done[done["_knot"] == k]
+            if sel.empty:
+                continue
+            g = sel.groupby(sel[mu].astype(float))[metric].agg(["mean", "std", "count"]).sort_index()
+            ax.errorbar(g.index, g["mean"], yerr=g["std"].fillna(0.0), fmt="s-", color=styles[k],
+                        label=f"{k}, knotsim")
+            for m, r in g.iterrows():
+                table_rows.append((k, m, r["mean"]))
+    ax.set_xlabel("friction coefficient μ")
+    ax.set_ylabel("mean F h²/EI")
+    ax.set_title("Mean traction against μ")
+    ax.legend()
+    ax.grid(alpha=0.3)
+    _save(fig, figdir / "mae259b_mean_traction_mu.png")
+    lines += ["![mean F h²/EI against μ](report_figures/mae259b_mean_traction_mu.png)", ""]
+    if table_rows:
+        lines += ["| knot | μ | knotsim mean F h²/EI | published | ratio |", "|---|---|---|---|---|"]
+        for k, m, v in sorted(table_rows):
+            ref = next((p for x, p in zip(pub["mu"], pub[k], strict=True) if math.isclose(x, m)), None)
+            ratio = v / ref if ref else None
+            lines.append(f"| {k} | {m:g} | {_md_cell(v)} | {_md_cell(ref)} | {_md_cell(ratio)} |")
+        lines.append("")
+    elif metric is None:
+        lines += ["(no mean-traction metric F_norm_mean in the results)", ""]
+    return lines
+
+
+# ------------------------------------------------------------------------------------------ generic
+def _generic_plots(df, params, metrics, figdir: Path, max_plots: int) -> list[str]:
+    done = df[df["outcome"] == "completed"] if "outcome" in df.columns else df
+    axes = [p for p in params if p != "repeat" and done[p].nunique(dropna=True) >= 2]
+    lines: list[str] = []
+    n = 0
+    for p in axes:
+        others = [q for q in params if q not in (p, "repeat") and done[q].nunique(dropna=True) >= 2]
+        values = list(done[p].dropna().unique())
+        numeric_x = _is_numeric_values(values)
+        if numeric_x:
+            order = sorted(float(v) for v in values)
+        else:
+            order = sorted(values, key=str)
+        for m in metrics:
+            if n >= max_plots:
+                lines.append(f"(more plots left out: at most {max_plots})")
+                return lines
+            sub = done[[p, m, *others]].dropna(subset=[p, m])
+            if sub.empty:
+                continue
+            fig, ax = _figure()
+            groups = sub.groupby(others, sort=True, dropna=False) if others else [((), sub)]
+            for key, g in groups:
+                key = key if isinstance(key, tuple) else (key,)
+                if numeric_x:
+                    xs = g[p].astype(float)
+                else:
+                    pos = {v: i for i, v in enumerate(order)}
+                    xs = g[p].map(pos).astype(float)
+                agg = g.assign(_x=xs.to_numpy()).groupby("_x")[m].agg(["mean", "std"]).sort_index()
+                label = ", ".join(f"{q} = {_md_cell(v)}" for q, v in zip(others, key, strict=True)) or None
+                ax.errorbar(agg.index, agg["mean"], yerr=agg["std"].fillna(0.0), fmt="o-", capsize=3, label=label)
+            if not numeric_x:
+                ax.set_xticks(range(len(order)), [str(v) for v in order], rotation=20)
+            elif len(order) > 2 and order[0] > 0 and order[-1] / order[0] >= 100:
+                ax.set_xscale("log")
+            ax.set_xlabel(p)
+            ax.set_ylabel(m)
+            ax.set_title(f"{m} against {p}")
+            ax.grid(alpha=0.3)
+            if others and len(sub.groupby(others)) <= 12:
+                ax.legend(fontsize=7)
+            name = f"{_slug(m)}__vs__{_slug(p)}.png"
+            _save(fig, figdir / name)
+            lines += [f"![{m} against {p}](report_figures/{name})", ""]
+            n += 1
+    return lines
+
+
+# ------------------------------------------------------------------------------------------ report
+def write_report(study_dir: str | os.PathLike, out: str | os.PathLike | None = None, *, max_plots: int = 60) -> Path:
+    """Write the Markdown report of ``study_dir`` (default ``study_dir/report.md``) and its figures
+    (``report_figures/`` next to it); returns the report's path. ``max_plots`` limits the
+    number of generic plots."""
+    from knotsim.study.store import StudyStore, load_study
+
+    study_dir = Path(study_dir)
+    df = load_study(study_dir)
+    out = Path(out) if out is not None else study_dir / "report.md"
+    figdir = out.parent / "report_figures"
+    figdir.mkdir(parents=True, exist_ok=True)
+    for old in figdir.glob("*.png"):
+        old.unlink()
+    store = StudyStore(study_dir)
+    prov = store.read_provenance()
+    params = _param_columns(study_dir, df)
+    metrics = _metric_columns(df, params) if len(df) else []
+
+    name = prov.get("study") or study_dir.name
+    lines = [f"# Study report: {name}", ""]
+    try:
+        import tomllib
+
+        with open(store.study_file, "rb") as fh:
+            desc = tomllib.load(fh).get("description")
+        if desc:
+            lines += [desc, ""]
+    except (OSError, ValueError):
+        pass
+    counts = df["outcome"].value_counts().to_dict() if "outcome" in df.columns and len(df) else {}
+    wall = float(df["wall_time"].dropna().sum()) if "wall_time" in df.columns and len(df) else 0.0
+    lines += [f"- cases in the table: {len(df)} ("
+              + (", ".join(f"{v} {k}" for k, v in counts.items()) or "none") + ")",
+              f"- total case wall time: {wall:.1f} s"]
+    if prov:
+        commit = prov.get("git_commit")
+        lines.append(f"- knotsim {prov.get('knotsim_version')}" + (f", commit {commit[:12]}" if commit else "")
+                     + f", Python {prov.get('python')}, host {prov.get('machine', {}).get('hostname')}; "
+                     f"{len(prov.get('sessions', []))} session(s), see provenance.json")
+    lines.append("")
+
+    if params:
+        lines += ["## Swept parameters", "", "| parameter | values |", "|---|---|"]
+        for p in params:
+            vals = list(df[p].dropna().unique())
+            vals = sorted(vals, key=float) if _is_numeric_values(vals) else sorted(vals, key=str)
+            lines.append(f"| {p} | {', '.join(_md_cell(v) for v in vals)} |")
+        lines.append("")
+
+    if len(df):
+        shown = metrics[:_MAX_TABLE_METRICS]
+        cols = ["case_id", *params, "outcome", *(["wall_time"] if "wall_time" in df.columns else []), *shown]
+        lines += ["## Results", ""]
+        if len(metrics) > len(shown):
+            lines += [f"{len(metrics) - len(shown)} more metrics in results.parquet "
+                      "(`knotsim.load_study(STUDY_DIR)`).", ""]
+        lines += [_md_table(df, cols), ""]
+        failed = df[df["outcome"] == "failed"] if "outcome" in df.columns else df.iloc[:0]
+        if len(failed):
+            lines += ["## Failed cases", "", _md_table(failed, ["case_id", *params, "error"]), "",
+                      "Tracebacks: column `traceback` of results.parquet and `cases/<case_id>/error.txt`.", ""]
+        lines += _mae259b(study_dir, df, params, figdir)
+        plots = _generic_plots(df, params, metrics, figdir, max_plots)
+        if plots:
+            lines += ["## Metrics against swept parameters", "", *plots]
+    else:
+        lines += ["No finished case yet.", ""]
+
+    out.write_text("\n".join(lines).rstrip() + "\n")
+    return out

@@ -1,0 +1,285 @@
+"""Running the cases of a study: local worker processes or a Dask distributed cluster.
+
+>>> df = run_study("examples/studies/bends.toml", "studies/bends", workers=2)
+>>> df = run_study("study.toml", "studies/x", scheduler="tcp://10.0.0.1:8786", resume=True)
+
+Local runs use a :class:`concurrent.futures.ProcessPoolExecutor` with ``spawn``ed worker
+processes, each running one case at a time with one BLAS thread; the workers die with the study
+process. On a Dask cluster every worker must be able to import knotsim and to write into
+``STUDY_DIR`` (a shared file system).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import time
+import uuid
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from knotsim.errors import ConfigError
+from knotsim.study.spec import Case, Study, load_study_spec
+from knotsim.study.store import StudyStore
+
+__all__ = ["Progress", "plan_study", "run_study"]
+
+
+@dataclass
+class Progress:
+    """State of a running study, passed to the ``progress`` callback of :func:`run_study`.
+
+    ``total``: cases of the study; ``reused``: finished before this session (resume);
+    ``done`` / ``failed``: finished in this session (``failed`` included in ``done``);
+    ``running``: cases being run (estimate: busy worker slots); ``elapsed`` and ``eta`` in s
+    (``eta`` is ``None`` until a case finished); ``last``: record of the case that just finished,
+    if any.
+    """
+
+    total: int
+    todo: int
+    reused: int = 0
+    done: int = 0
+    failed: int = 0
+    running: int = 0
+    elapsed: float = 0.0
+    eta: float | None = None
+    last: dict | None = None
+
+
+def plan_study(study, study_dir, *, resume: bool = False, retry_failed: bool = False):
+    """Expand ``study`` and find what is left to run in ``study_dir``.
+
+    Returns ``(spec, cases, reused_records, todo)``.
+    """
+    spec = study if isinstance(study, Study) else load_study_spec(study)
+    cases = spec.expand()
+    store = StudyStore(study_dir)
+    if store.exists() and not resume:
+        raise ConfigError("study_dir", f"{str(study_dir)!r} already holds a study; pass --resume (resume=True) "
+                          "to run only its missing cases, or choose a new directory")
+    finished = store.finished() if resume else {}
+    ids = {c.case_id for c in cases}
+    reused = {cid: rec for cid, rec in finished.items() if cid in ids}
+    if retry_failed:
+        reused = {cid: rec for cid, rec in reused.items() if rec.get("outcome") != "failed"}
+    todo = [c for c in cases if c.case_id not in reused]
+    return spec, cases, reused, todo
+
+
+def run_study(
+    study: str | os.PathLike | dict | Study,
+    study_dir: str | os.PathLike,
+    *,
+    workers: int | None = None,
+    scheduler=None,
+    resume: bool = False,
+    retry_failed: bool = False,
+    max_cases_per_worker: int | None = None,
+    progress: Callable[[Progress], None] | None = None,
+    session: dict | None = None,
+):
+    """Run every case of ``study`` into ``study_dir``; returns the results table (pandas DataFrame).
+
+    Parameters
+    ----------
+    study:
+        Study file (TOML path), dict, or :class:`~knotsim.study.spec.Study`.
+    study_dir:
+        Results directory (see :mod:`knotsim.study.store`).
+    workers:
+        Local worker processes (default: the number of CPUs, at most the number of cases).
+    scheduler:
+        Address of a Dask scheduler (``"tcp://host:8786"``), or a ``distributed.Client`` or
+        cluster object: run there instead of locally.
+    resume:
+        Continue an existing study directory: only cases without a finished case directory run.
+        Without it an existing study directory is an error.
+    retry_failed:
+        With ``resume``, run failed cases again too.
+    max_cases_per_worker:
+        Local pool only: replace a worker process after this many cases (``1``: a fresh process per
+        case; default: never).
+    progress:
+        Called with a :class:`Progress` about every 0.2 s and after each finished case.
+    session:
+        Extra information recorded in this session's entry of ``provenance.json``.
+
+    A failing case (any exception) is recorded with outcome ``"failed"``, its error and traceback;
+    the other cases go on. A worker process that dies takes its case with it: the case is
+    reported failed in the table but has no case directory, so ``resume`` runs it again.
+    """
+    spec, cases, reused, todo = plan_study(study, study_dir, resume=resume, retry_failed=retry_failed)
+    store = StudyStore(study_dir)
+    store.cleanup()
+    if retry_failed:
+        todo_ids = {c.case_id for c in todo}
+        for cid, rec in store.finished().items():
+            if cid in todo_ids and rec.get("outcome") == "failed":
+                store.discard(cid)
+    backend = "dask" if scheduler is not None else "local"
+    store.prepare(spec, session={"backend": backend, "scheduler": _address(scheduler), "workers": workers,
+                                 "resume": resume, "cases": len(cases), "to_run": len(todo), **(session or {})})
+    records = dict(reused)
+    store.write_results(cases, records)
+    state = Progress(total=len(cases), todo=len(todo), reused=len(reused))
+    t0 = time.perf_counter()
+    if todo:
+        if backend == "local":
+            _run_local(todo, store, spec, records, state, cases, workers, max_cases_per_worker, progress, t0)
+        else:
+            _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0)
+    df = store.write_results(cases, records)
+    store.finish_session(completed=int(state.done - state.failed), failed=int(state.failed),
+                         wall_time=time.perf_counter() - t0)
+    return df
+
+
+def _address(scheduler) -> str | None:
+    if scheduler is None or isinstance(scheduler, str):
+        return scheduler
+    return getattr(scheduler, "scheduler_address", None) or str(scheduler)
+
+
+def _payload(case: Case) -> dict:
+    return case.to_dict()
+
+
+def _lost(case: Case, exc: BaseException) -> dict:
+    """Record of a case whose worker failed (no case directory: resume runs it again)."""
+    import traceback
+
+    return {"case_id": case.case_id, "kind": case.kind, "params": case.params, "repeat": case.repeat,
+            "outcome": "failed", "error": f"worker lost: {type(exc).__name__}: {exc}",
+            "traceback": "".join(traceback.format_exception(exc)), "wall_time": None, "metrics": {},
+            "host": None}
+
+
+class _Loop:
+    """Polls futures, records finished cases, writes the table and reports progress."""
+
+    def __init__(self, store, cases, records, state, progress, t0, slots):
+        self.store, self.cases, self.records, self.state = store, cases, records, state
+        self.progress, self.t0, self.slots = progress, t0, slots
+        self._last_write = 0.0
+
+    def finish(self, case: Case, record: dict) -> None:
+        self.records[case.case_id] = record
+        self.state.done += 1
+        self.state.failed += record.get("outcome") == "failed"
+        self.state.last = record
+
+    def tick(self, pending: int, changed: bool) -> None:
+        now = time.perf_counter()
+        st = self.state
+        st.elapsed = now - self.t0
+        st.running = min(self.slots(), pending)
+        st.eta = st.elapsed * (st.todo - st.done) / st.done if st.done else None
+        if changed and now - self._last_write > 1.0:
+            self.store.write_results(self.cases, self.records)
+            self._last_write = now
+        if self.progress is not None:
+            self.progress(st)
+        st.last = None
+
+    def run(self, futures: dict, result) -> None:
+        pending = dict(futures)
+        self.tick(len(pending), False)
+        while pending:
+            finished = [f for f in pending if f.done()]
+            for f in finished:
+                case = pending.pop(f)
+                try:
+                    rec = result(f)
+                except Exception as exc:
+                    rec = _lost(case, exc)
+                self.finish(case, rec)
+                self.tick(len(pending), True)
+            if not finished:
+                time.sleep(0.2)
+                self.tick(len(pending), False)
+
+
+def _run_local(todo, store, spec, records, state, cases, workers, max_cases_per_worker, progress, t0):
+    from concurrent.futures import ProcessPoolExecutor
+
+    from knotsim.study._worker import execute_case, init_worker
+
+    n = workers if workers is not None else (os.cpu_count() or 1)
+    if not isinstance(n, int) or n < 1:
+        raise ConfigError("workers", f"must be a positive integer, got {workers!r}")
+    n = min(n, len(todo))
+    kw = {}
+    if max_cases_per_worker is not None:
+        kw["max_tasks_per_child"] = int(max_cases_per_worker)
+    ctx = multiprocessing.get_context("spawn")
+    env = {v: os.environ.get(v) for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+    for v in env:  # inherited by the spawned workers before they import numpy
+        os.environ[v] = "1"
+    try:
+        pool = ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=init_worker,
+                                   initargs=(os.getpid(),), **kw)
+    finally:
+        for v, old in env.items():
+            if old is None:
+                os.environ.pop(v, None)
+            else:
+                os.environ[v] = old
+    loop = _Loop(store, cases, records, state, progress, t0, lambda: n)
+    try:
+        futures = {pool.submit(execute_case, _payload(c), str(store.path.resolve()), str(spec.base_dir)): c
+                   for c in todo}
+        loop.run(futures, lambda f: f.result())
+    except BaseException:
+        pool.shutdown(wait=False, cancel_futures=True)
+        store.write_results(cases, records)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0):
+    try:
+        from distributed import Client
+    except ImportError as exc:
+        raise ConfigError("scheduler", f"running on a Dask cluster needs dask.distributed ({exc}): "
+                          "pip install knotsim[dask]") from None
+    from knotsim.study._worker import execute_case
+
+    own = False
+    if isinstance(scheduler, Client):
+        client = scheduler
+    else:
+        address = getattr(scheduler, "scheduler_address", scheduler)
+        try:
+            client = Client(address, timeout="20s")
+        except OSError as exc:
+            raise ConfigError("scheduler", f"cannot connect to the Dask scheduler at {address!r}: {exc}") from None
+        own = True
+    cache = {"t": 0.0, "n": 1}
+
+    def slots() -> int:
+        now = time.perf_counter()
+        if now - cache["t"] > 5.0:
+            try:
+                cache["n"] = max(1, sum(client.nthreads().values()))
+            except Exception:
+                pass
+            cache["t"] = now
+        return cache["n"]
+
+    token = uuid.uuid4().hex[:8]
+    loop = _Loop(store, cases, records, state, progress, t0, slots)
+    futures = {}
+    try:
+        for c in todo:
+            f = client.submit(execute_case, _payload(c), str(store.path.resolve()), str(spec.base_dir),
+                              key=f"knotsim-case-{c.case_id}-{token}", pure=False, retries=0)
+            futures[f] = c
+        loop.run(futures, lambda f: f.result())
+    except BaseException:
+        client.cancel(list(futures))
+        store.write_results(cases, records)
+        raise
+    finally:
+        if own:
+            client.close()

@@ -1,0 +1,434 @@
+"""Results store of a study: one directory, resumable, with provenance.
+
+Layout of ``STUDY_DIR``::
+
+    study.toml          the study as run (base case inlined)
+    results.parquet     one row per finished case
+    provenance.json     versions, git commit, machine, one entry per session (run / resume)
+    cases/<case_id>/    one directory per finished case:
+        case.json       kind, swept parameters, resolved configuration
+        result.json     outcome, error, traceback, wall time (s), metrics, host (written last)
+        error.txt       traceback of a failed case
+        ...             the case's own outputs (trajectory.h5, log.parquet, run.json, ...)
+    cases/.tmp-*        cases being run (never read as results)
+
+A case directory is written under a temporary name and renamed when ``result.json`` is in it, so a
+directory ``cases/<case_id>`` is always complete; killing a study (even with SIGKILL) loses only
+the cases that were running.
+
+Columns of ``results.parquet``: ``case_id``, ``kind``, every swept parameter by its dotted key
+(lists as JSON text), ``repeat`` (only with repeats), ``outcome`` (``"completed"`` or
+``"failed"``), ``error``, ``wall_time`` (s, the whole case), every metric of the case's record (a
+metric whose name clashes with one of these columns is prefixed ``metric.``), ``traceback`` and
+``case_dir`` (relative to ``STUDY_DIR``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import platform
+import shutil
+import socket
+import subprocess
+import time
+import traceback
+import uuid
+from pathlib import Path
+from typing import Any
+
+__all__ = ["StudyStore", "load_study", "provenance_info", "run_case_atomically"]
+
+CASES = "cases"
+TMP_PREFIX = ".tmp-"
+RECORD = "result.json"
+_RESERVED = ("case_id", "kind", "repeat", "outcome", "error", "wall_time", "traceback", "case_dir")
+_DEPENDENCIES = ("numpy", "scipy", "numba", "h5py", "pandas", "pyarrow", "click", "matplotlib", "pillow",
+                 "dask", "distributed")
+
+
+# ------------------------------------------------------------------------------------------ helpers
+def _json_default(obj):
+    if hasattr(obj, "tolist"):
+        return obj.tolist()
+    if hasattr(obj, "item"):
+        return obj.item()
+    return str(obj)
+
+
+def _clean(v):
+    """JSON-safe value: non-finite floats become None."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, dict):
+        return {k: _clean(x) for k, x in v.items()}
+    if isinstance(v, list | tuple):
+        return [_clean(x) for x in v]
+    return v
+
+
+def _write_json(path: Path, data: Any, *, fsync: bool = False) -> None:
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}")
+    with open(tmp, "w") as fh:
+        json.dump(_clean(data), fh, indent=2, default=_json_default)
+        if fsync:
+            fh.flush()
+            os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def _fsync_dir(path: Path) -> None:
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+# ------------------------------------------------------------------------------------------ one case
+def run_case_atomically(case: dict, study_dir: str | os.PathLike, base_dir: str | os.PathLike) -> dict:
+    """Run ``case`` into ``cases/.tmp-<id>-<host>-<pid>-<rand>/`` and rename it ``cases/<id>`` once
+    ``result.json`` is written. Returns the record (``result.json``'s content).
+
+    If ``cases/<id>`` already exists (another worker finished the same case first), the new
+    directory is discarded and the existing record returned.
+    """
+    from knotsim import __version__
+    from knotsim.study.executors import get_executor
+
+    cases_dir = Path(study_dir) / CASES
+    final = cases_dir / case["case_id"]
+    existing = _read_summary(final)
+    if existing is not None:
+        return existing
+    host = socket.gethostname()
+    tmp = cases_dir / f"{TMP_PREFIX}{case['case_id']}-{host}-{os.getpid()}-{uuid.uuid4().hex[:6]}"
+    tmp.mkdir(parents=True)
+    _write_json(tmp / "case.json", case)
+    started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+    t0 = time.perf_counter()
+    metrics: dict = {}
+    error = tb = None
+    try:
+        metrics = get_executor(case["kind"])(case["config"], tmp, Path(base_dir))
+        outcome = "completed"
+    except Exception as exc:  # a failing case never stops the others
+        outcome = "failed"
+        error = f"{type(exc).__name__}: {exc}"
+        tb = traceback.format_exc()
+        (tmp / "error.txt").write_text(tb)
+    record = {
+        "case_id": case["case_id"],
+        "kind": case["kind"],
+        "params": case["params"],
+        "repeat": case.get("repeat", 0),
+        "outcome": outcome,
+        "error": error,
+        "traceback": tb,
+        "wall_time": time.perf_counter() - t0,
+        "metrics": metrics,
+        "host": host,
+        "pid": os.getpid(),
+        "knotsim_version": __version__,
+        "started": started,
+        "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+    }
+    _write_json(tmp / RECORD, record, fsync=True)
+    _fsync_dir(tmp)
+    try:
+        os.rename(tmp, final)
+    except OSError:
+        done = _read_summary(final)
+        if done is None:
+            raise
+        shutil.rmtree(tmp, ignore_errors=True)
+        return done
+    _fsync_dir(cases_dir)
+    return _clean(record)
+
+
+def _read_summary(case_dir: Path) -> dict | None:
+    try:
+        with open(case_dir / RECORD) as fh:
+            return json.load(fh)
+    except (FileNotFoundError, NotADirectoryError, json.JSONDecodeError):
+        return None
+
+
+# ------------------------------------------------------------------------------------------ provenance
+def _git_commit() -> dict:
+    pkg = Path(__file__).resolve().parents[1]
+    try:
+        head = subprocess.run(["git", "-C", str(pkg), "rev-parse", "HEAD"], capture_output=True, text=True,
+                              timeout=5)
+        if head.returncode != 0:
+            return {"commit": None, "dirty": None}
+        dirty = subprocess.run(["git", "-C", str(pkg), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=5)
+        return {"commit": head.stdout.strip(), "dirty": bool(dirty.stdout.strip()) if dirty.returncode == 0 else None}
+    except (OSError, subprocess.SubprocessError):
+        return {"commit": None, "dirty": None}
+
+
+def provenance_info() -> dict:
+    """knotsim version, git commit (when installed from a checkout), Python and dependency versions,
+    machine."""
+    from importlib import metadata
+
+    import knotsim
+
+    deps = {}
+    for name in _DEPENDENCIES:
+        try:
+            deps[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            deps[name] = None
+    git = _git_commit()
+    return {
+        "knotsim_version": knotsim.__version__,
+        "git_commit": git["commit"],
+        "git_dirty": git["dirty"],
+        "python": platform.python_version(),
+        "python_implementation": platform.python_implementation(),
+        "dependencies": deps,
+        "machine": {
+            "hostname": socket.gethostname(),
+            "platform": platform.platform(),
+            "machine": platform.machine(),
+            "processor": platform.processor(),
+            "cpu_count": os.cpu_count(),
+        },
+    }
+
+
+# ------------------------------------------------------------------------------------------ store
+class StudyStore:
+    """The files of one study directory (see the module docstring for the layout)."""
+
+    def __init__(self, path: str | os.PathLike):
+        self.path = Path(path)
+        self.cases_dir = self.path / CASES
+
+    # --------------------------------------------------------------- paths and state
+    @property
+    def study_file(self) -> Path:
+        return self.path / "study.toml"
+
+    @property
+    def results_file(self) -> Path:
+        return self.path / "results.parquet"
+
+    @property
+    def provenance_file(self) -> Path:
+        return self.path / "provenance.json"
+
+    def exists(self) -> bool:
+        """True when the directory already holds a study."""
+        return self.study_file.is_file() or self.cases_dir.is_dir()
+
+    def case_dir(self, case_id: str) -> Path:
+        return self.cases_dir / case_id
+
+    def read_record(self, case_id: str) -> dict | None:
+        """The record of a finished case, or ``None``."""
+        return _read_summary(self.case_dir(case_id))
+
+    def finished(self) -> dict[str, dict]:
+        """Records of every finished case directory, by case id."""
+        out = {}
+        if self.cases_dir.is_dir():
+            for d in self.cases_dir.iterdir():
+                if d.name.startswith("."):
+                    continue
+                rec = _read_summary(d)
+                if rec is not None:
+                    out[d.name] = rec
+        return out
+
+    def discard(self, case_id: str) -> None:
+        """Remove a finished case (atomically: renamed away first, then deleted)."""
+        d = self.case_dir(case_id)
+        if d.exists():
+            trash = self.cases_dir / f".trash-{case_id}-{uuid.uuid4().hex[:6]}"
+            os.rename(d, trash)
+            shutil.rmtree(trash, ignore_errors=True)
+
+    def cleanup(self) -> list[str]:
+        """Delete leftovers of killed runs: ``.tmp-*`` directories of dead processes of this host and
+        ``.trash-*`` directories. Returns the names removed."""
+        removed = []
+        if not self.cases_dir.is_dir():
+            return removed
+        host = socket.gethostname()
+        for d in self.cases_dir.iterdir():
+            name = d.name
+            if name.startswith(".trash-"):
+                shutil.rmtree(d, ignore_errors=True)
+                removed.append(name)
+            elif name.startswith(TMP_PREFIX):
+                rest = name[len(TMP_PREFIX):]
+                try:
+                    _cid, tail = rest.split("-", 1)
+                    dhost, spid, _rand = tail.rsplit("-", 2)
+                    pid = int(spid)
+                except ValueError:
+                    continue
+                if dhost == host and not _pid_alive(pid):
+                    shutil.rmtree(d, ignore_errors=True)
+                    removed.append(name)
+        return removed
+
+    # --------------------------------------------------------------- writing
+    def prepare(self, study, *, session: dict) -> None:
+        """Create the directory, write ``study.toml`` and add a session to ``provenance.json``."""
+        from knotsim.study.spec import dumps_toml
+
+        self.cases_dir.mkdir(parents=True, exist_ok=True)
+        doc = {"name": study.name}
+        if study.description:
+            doc["description"] = study.description
+        if study.repeats != 1:
+            doc["repeats"] = study.repeats
+        doc["base"] = study.base
+        for k in ("grid", "zip", "cases"):
+            if k in study.raw:
+                doc[k] = study.raw[k] if k != "zip" or isinstance(study.raw[k], list) else [study.raw[k]]
+        tmp = self.study_file.with_name(".study.toml.tmp")
+        tmp.write_text(dumps_toml(doc))
+        os.replace(tmp, self.study_file)
+        prov = self.read_provenance()
+        info = provenance_info()
+        sessions = prov.get("sessions", [])
+        sessions.append({**session, **{k: info[k] for k in ("knotsim_version", "git_commit", "git_dirty")},
+                         "hostname": info["machine"]["hostname"],
+                         "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
+        _write_json(self.provenance_file, {"study": study.name, **info, "sessions": sessions})
+
+    def read_provenance(self) -> dict:
+        try:
+            with open(self.provenance_file) as fh:
+                return json.load(fh)
+        except (FileNotFoundError, json.JSONDecodeError):
+            return {}
+
+    def finish_session(self, **info) -> None:
+        """Record the end of the current session (counts, wall time) in ``provenance.json``."""
+        prov = self.read_provenance()
+        if prov.get("sessions"):
+            prov["sessions"][-1].update(info, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
+            _write_json(self.provenance_file, prov)
+
+    def write_results(self, cases: list, records: dict[str, dict]):
+        """Write ``results.parquet``: one row per finished case of ``cases`` (in study order).
+        Returns the table as read back (so its dtypes are those of :func:`load_study`)."""
+        import pandas as pd
+
+        df = results_frame(cases, records)
+        tmp = self.results_file.with_name(f".results.{uuid.uuid4().hex[:6]}.parquet")
+        df.to_parquet(tmp, index=False)
+        os.replace(tmp, self.results_file)
+        return pd.read_parquet(self.results_file)
+
+
+def _pid_alive(pid: int) -> bool:
+    """True when process ``pid`` of this host runs (zombies count as dead)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            state = fh.read().rsplit(")", 1)[1].split()[0]
+        return state not in ("Z", "X")
+    except (OSError, IndexError):
+        return True
+
+
+def _cell(v):
+    if isinstance(v, list | tuple | dict):
+        return json.dumps(v)
+    return v
+
+
+def results_frame(cases: list, records: dict[str, dict]):
+    """DataFrame with one row per case of ``cases`` that has a record (see the module docstring)."""
+    import pandas as pd
+
+    rows = []
+    for case in cases:
+        c = case if isinstance(case, dict) else case.to_dict()
+        rec = records.get(c["case_id"])
+        if rec is None:
+            continue
+        row = {"case_id": c["case_id"], "kind": c["kind"]}
+        for k, v in c["params"].items():
+            row[k] = _cell(v)
+        row["outcome"] = rec.get("outcome")
+        row["error"] = rec.get("error")
+        row["wall_time"] = rec.get("wall_time")
+        for k, v in (rec.get("metrics") or {}).items():
+            name = k if k not in row and k not in _RESERVED else f"metric.{k}"
+            row[name] = math.nan if v is None else _cell(v)
+        row["traceback"] = rec.get("traceback")
+        row["case_dir"] = f"{CASES}/{c['case_id']}" if rec.get("host") is not None else None
+        rows.append(row)
+    df = pd.DataFrame(rows)
+    if df.empty:
+        df = pd.DataFrame(columns=["case_id", "kind", "outcome", "error", "wall_time", "traceback", "case_dir"])
+    # metrics and tail columns after the parameters
+    tail = [c for c in ("traceback", "case_dir") if c in df.columns]
+    df = df[[c for c in df.columns if c not in tail] + tail]
+    for col in ("error", "traceback", "case_dir"):
+        if col in df.columns:
+            df[col] = df[col].astype(object)
+    params = {k for c in cases for k in (c if isinstance(c, dict) else c.to_dict())["params"]}
+    for col in df.columns:  # integer metrics stay integers next to failed (missing) rows
+        if col in _RESERVED or col in params or df[col].dtype != float:
+            continue
+        vals = [v for v in _rows_values(rows, col) if v is not None and not (isinstance(v, float) and math.isnan(v))]
+        if vals and all(isinstance(v, int) and not isinstance(v, bool) for v in vals):
+            df[col] = df[col].astype("Int64")
+    return df
+
+
+def _rows_values(rows: list[dict], col: str) -> list:
+    """The raw values of column ``col`` in ``rows`` (missing keys left out)."""
+    return [r[col] for r in rows if col in r]
+
+
+def load_study(study_dir: str | os.PathLike):
+    """The results table of a study directory (``results.parquet``) as a pandas DataFrame.
+
+    When ``results.parquet`` is missing or older than some case directory (a study killed before
+    it could write it), the table is rebuilt from ``study.toml`` and the case directories.
+    """
+    import pandas as pd
+
+    from knotsim.errors import ConfigError
+
+    store = StudyStore(study_dir)
+    if not store.study_file.is_file():
+        raise ConfigError("study_dir", f"{str(study_dir)!r} is not a study directory (no study.toml)")
+    if store.results_file.is_file() and not _stale(store):
+        return pd.read_parquet(store.results_file)
+    from knotsim.study.spec import load_study_spec
+
+    spec = load_study_spec(store.study_file)
+    cases = spec.expand()
+    return results_frame(cases, store.finished())
+
+
+def _stale(store: StudyStore) -> bool:
+    t = store.results_file.stat().st_mtime
+    try:
+        return store.cases_dir.stat().st_mtime > t + 1e-3
+    except FileNotFoundError:
+        return False
