@@ -197,3 +197,40 @@ def test_clamp_then_move_same_nodes():
     np.testing.assert_allclose(_node(sim, -1), x0, atol=1e-12)
     sim.advance(0.01)
     np.testing.assert_allclose(_node(sim, -1), x0 + [1e-2 * 0.005, 0, 0], atol=1e-12)
+
+
+def test_from_current_waypoints_reach_absolute_targets_from_wherever_the_group_is():
+    import numpy as np
+
+    from knotsim.bc import Waypoints
+    from knotsim.rods import Model, RodSpec
+    from knotsim.simulation import Simulation
+    from knotsim.solver.stepper import SolverSettings
+
+    x = np.zeros((11, 3))
+    x[:, 0] = np.linspace(0.0, 0.1, 11)
+    m = Model([RodSpec(x, radius=1e-3, youngs_modulus=1e6, density=1000.0)], damping=0.05)
+    bcs = BoundaryConditions(m)
+    bcs.clamp("left", nodes=[0, 1])
+    # the right end first moves 5 mm up, then a grip activated at 0.1 s takes it to a world point
+    bcs.move("lift", nodes=[-1], path=[0.0, 0.0, 0.05], stop=0.1)
+    bcs.move("grip", nodes=[-1], start=0.1, path=Waypoints([0.1, 0.2], [[0.09, 0.01, 0.0], [0.09, 0.01, 0.0]],
+                                                           absolute=True, from_current=True))
+    sim = Simulation(m, bcs, SolverSettings(dt=5e-3))
+    sim.run(0.1, progress=False)
+    start = m.node_positions(sim.state.q)[-1].copy()
+    assert start[2] == pytest.approx(0.00475, rel=1e-6)  # lift active for steps ending before 0.1 s
+    sim.run(0.05, progress=False)  # half way along the first leg
+    mid = m.node_positions(sim.state.q)[-1]
+    np.testing.assert_allclose(mid, 0.5 * (start + np.array([0.09, 0.01, 0.0])), atol=1e-9)
+    sim.run(0.1, progress=False)
+    np.testing.assert_allclose(m.node_positions(sim.state.q)[-1], [0.09, 0.01, 0.0], atol=1e-9)
+
+
+def test_from_current_needs_absolute_and_positive_first_time():
+    from knotsim.bc import Waypoints
+
+    with pytest.raises(ConfigError, match="from_current: from_current needs absolute=true"):
+        Waypoints([1.0], [[0, 0, 0]], from_current=True)
+    with pytest.raises(ConfigError, match="times: with from_current the first time must be > 0"):
+        Waypoints([0.0, 1.0], [[0, 0, 0], [1, 0, 0]], absolute=True, from_current=True)

@@ -253,8 +253,10 @@ class BoundaryConditions:
                     g.anchor = q_in[pos_dofs].reshape(-1, 3).copy()
                     g.anchor_theta = q_in[th_dofs].copy()
                     g.anchor_time = t_in
-                    if g.path is not None and g.path.absolute_start is not None:
-                        self._check_path_start(g, g.anchor.mean(axis=0))
+                    if g.path is not None:
+                        g.path.bind(g.anchor.mean(axis=0))
+                        if g.path.absolute_start is not None:
+                            self._check_path_start(g, g.anchor.mean(axis=0))
                 pos = g.anchor
                 if g.path is not None:
                     disp = g.path(t - g.start) - g.path(max(g.anchor_time - g.start, 0.0))

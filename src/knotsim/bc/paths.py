@@ -21,6 +21,9 @@ class Path:
     def displacement(self, elapsed: float) -> np.ndarray:  # pragma: no cover - interface
         raise NotImplementedError
 
+    def bind(self, centroid: np.ndarray) -> None:
+        """Called when the group activates, with its centroid (m); most paths ignore it."""
+
     def __call__(self, elapsed: float) -> np.ndarray:
         return self.displacement(elapsed)
 
@@ -52,16 +55,33 @@ class Waypoints(Path):
         Shape ``(len(times), 3)``, m. Displacements from the group's position at activation, or, with
         ``absolute=True``, positions of the group's centroid (then the first point must be where
         the centroid is when the group activates).
+    from_current:
+        With ``absolute=True``: the points are targets for the centroid and the path starts from
+        wherever the centroid is when the group activates (a first leg from there to ``points[0]``,
+        reached at ``times[0] > 0``). Lets a grip that activates mid-run go to world positions.
     After the last time the group stays at the last point.
     """
 
-    def __init__(self, times: Sequence[float], points, absolute: bool = False):
+    def __init__(self, times: Sequence[float], points, absolute: bool = False, from_current: bool = False):
         t = np.asarray(times, dtype=float)
         p = np.asarray(points, dtype=float)
         if t.ndim != 1 or t.size < 1:
             raise ConfigError("times", f"expected a list of at least one time, got {times!r}")
         if p.shape != (t.size, 3):
             raise ConfigError("points", f"expected shape ({t.size}, 3) (one 3D point per time), got {p.shape}")
+        if from_current and not absolute:
+            raise ConfigError("from_current", "from_current needs absolute=true (points are centroid targets)")
+        self.from_current = bool(from_current)
+        if from_current:
+            if not t[0] > 0:
+                raise ConfigError("times", f"with from_current the first time must be > 0 (the first leg "
+                                           f"starts at the current centroid at 0), got {t[0]}")
+            if np.any(np.diff(t) <= 0):
+                raise ConfigError("times", f"waypoint times must increase strictly, got {t.tolist()}")
+            self.times = np.concatenate([[0.0], t])
+            self.points = np.concatenate([np.full((1, 3), np.nan), p])
+            self.absolute = True
+            return
         if abs(t[0]) > 1e-12:
             raise ConfigError("times", f"waypoint times start at 0 (time since activation), got {t[0]}")
         if np.any(np.diff(t) <= 0):
@@ -78,7 +98,13 @@ class Waypoints(Path):
                 "use absolute=true for centroid positions",
             )
 
+    def bind(self, centroid: np.ndarray) -> None:
+        if self.from_current:
+            self.points[0] = centroid
+
     def displacement(self, elapsed: float) -> np.ndarray:
+        if self.from_current and not np.all(np.isfinite(self.points[0])):
+            raise ConfigError("path", "a from_current waypoint path was used before its group activated")
         out = np.empty(3)
         for k in range(3):
             out[k] = np.interp(elapsed, self.times, self.points[:, k])

@@ -48,8 +48,10 @@ counting from the end; a single integer is accepted), ``start`` / ``stop`` (s, a
 - ``hold``: nothing more (twist stays free);
 - ``move``: ``twist`` (default true) and exactly one of ``velocity`` = [vx, vy, vz] (m/s) or
   ``waypoints`` = {times = [...] (s since activation, first 0), points = [[x, y, z], ...] (m),
-  absolute = false}; relative points are displacements (first one [0, 0, 0]), absolute ones are
-  positions of the group's centroid (the first one must be where the centroid is);
+  absolute = false, from_current = false}; relative points are displacements (first one
+  [0, 0, 0]), absolute ones are positions of the group's centroid (the first one must be where the
+  centroid is, unless ``from_current = true``: then the path starts wherever the centroid is when the
+  group activates and reaches ``points[0]`` at ``times[0] > 0``);
 - ``rotate``: ``rate`` (rad/s) -- the nodes are clamped and the edges between them twisted;
 - ``force``: exactly one of ``force`` = [fx, fy, fz] (N, total on the group, constant) or
   ``ramp`` = {from = [..], to = [..], duration = ..} (N, N, s: linear from ``start`` on, then
@@ -524,12 +526,13 @@ def _parse_bc(t, i: int) -> _BCSpec:
         else:
             wpath = f"{path}.waypoints"
             w = _table(t["waypoints"], wpath)
-            _check_keys(w, wpath, ("times", "points", "absolute"))
+            _check_keys(w, wpath, ("times", "points", "absolute", "from_current"))
             times = _get(w, "times", wpath, _numbers)
             points = _get(w, "points", wpath, _numbers)
             absolute = _get(w, "absolute", wpath, _boolean, False)
+            from_current = _get(w, "from_current", wpath, _boolean, False)
             try:
-                kw["path"] = Waypoints(times, points, absolute=absolute)
+                kw["path"] = Waypoints(times, points, absolute=absolute, from_current=from_current)
             except ConfigError as exc:
                 raise ConfigError(f"{wpath}.{exc.field}", _message(exc)) from None
             key_map["path"] = "waypoints"
