@@ -270,9 +270,10 @@ def render(run_dir: Path, frames: str, outdir: Path | None, view: str, size: str
 
 def _register_subcommands() -> None:
     """Commands owned by other packages (their heavy imports happen inside the commands)."""
+    from knotsim.protocols.cli import knots, tie
     from knotsim.study.cli import animate, report, study
 
-    for command in (study, report, animate):
+    for command in (knots, tie, study, report, animate):
         main.add_command(command)
 
 

@@ -40,6 +40,7 @@ class Simulation:
         self.dt = self.settings.dt
         self.dt_min = self.settings.dt_min or self.settings.dt / 1024.0
         self._easy = 0
+        self._retry_cooldown = 0
         self.rows: list[dict] = []
         self.n_failures = 0
 
@@ -54,6 +55,8 @@ class Simulation:
             h = min(self.dt, t_end - self.state.time)
             trial = self.state.copy()
             attempts += 1
+            # retries of a failed step use full Newton; the steps after it return to the default
+            self.stepper.full_newton = attempts > 1 or self._retry_cooldown > 0
             try:
                 res = self.stepper.step(self.state, trial, self.bcs, h)
             except StepFailure as exc:
@@ -69,6 +72,7 @@ class Simulation:
                 continue
             self.state = trial
             res.attempts = attempts
+            self._retry_cooldown = self.settings.grow_after if attempts > 1 else max(0, self._retry_cooldown - 1)
             if res.iterations <= self.settings.easy_iterations:
                 self._easy += 1
             else:

@@ -170,6 +170,7 @@ class ContactInteraction:
         self._fmax_pending = 0.0
         self.pairs = np.zeros((0, 2), np.int64)
         self.pair_dofs = np.zeros((0, 12), np.int64)
+        self._dt_ref = 0.0
         # Same-rod pairs closer than 1.5 contact distances along the rod never count as contact: on a
         # finely meshed rod, edges i and i + 3 of a straight rod are closer than 2h (the broad phase
         # already skips |i - j| < 3).
@@ -267,7 +268,11 @@ class ContactInteraction:
         if s.stiffness_mode == "adaptive":
             t1 = time.perf_counter()
             k = self.pair_dofs.shape[0]
-            f_imp = approach_forces(q, state_in.v, dt, self.pair_dofs, self.pair_d, s.delta, m.mass) if k else 0.0
+            # the impact estimate uses the largest step seen, not the current attempt's: a step retried
+            # with dt/2 must not double the stiffness (which would make every retry harder)
+            self._dt_ref = max(self._dt_ref, dt)
+            f_imp = (approach_forces(q, state_in.v, self._dt_ref, self.pair_dofs, self.pair_d, s.delta, m.mass)
+                     if k else 0.0)
             self.timers["narrow_phase"] += time.perf_counter() - t1
             fmax = max(self._fmax_accepted, f_imp)
             if fmax > 0.0:

@@ -138,8 +138,14 @@ class _StepSystem:
         m = stepper.model
         if static:
             self.diag = np.zeros(m.n_dofs)
+            self.roundoff_factor = 1.0
         else:
             self.diag = m.mass / dt**2 + stepper.damping_coef / dt
+            # The inertia term M (q - q_n - dt v_n)/dt^2 cannot be evaluated more accurately than
+            # about eps |q| M/dt^2: at tiny steps the tolerance is raised to that round-off level.
+            eps_force = 64.0 * np.finfo(float).eps * float(np.max(np.abs(state_in.q)) + 1e-300) * float(
+                np.max(self.diag[m.position_mask]))
+            self.roundoff_factor = max(1.0, eps_force / stepper.force_tol)
         self._mode = None
 
     # -- residual / Jacobian --------------------------------------------------------------
@@ -180,7 +186,7 @@ class _StepSystem:
 
     def residual_norm(self, r: np.ndarray) -> float:
         rp, rt = split_max_abs(r, self.s.model.theta_mask)
-        return max(rp / self.s.force_tol, rt / self.s.moment_tol)
+        return max(rp / self.s.force_tol, rt / self.s.moment_tol) / self.roundoff_factor
 
     def step_norm(self, dq: np.ndarray) -> float:
         sp_, st = split_max_abs(dq, self.s.model.theta_mask)
@@ -226,6 +232,9 @@ class Stepper:
         self._elastic_pattern = None
         self._needs_factor = True
         self._active = None
+        #: Set by the driver for retries of a failed step: use full Newton (fresh Jacobian every
+        #: iteration), the most robust choice, whatever ``settings.jacobian_reuse`` says.
+        self.full_newton = False
         #: Number of matrix factorisations so far.
         self.factorizations = 0
         self.last_solver = ""
@@ -339,7 +348,7 @@ class Stepper:
         system = _StepSystem(self, state_in, dt, fixed, self.gravity_force + f_bc, static=False)
         try:
             res = newton_solve(system, q0, self.settings.max_iterations, self.settings.line_search,
-                               reuse_jacobian=self.settings.jacobian_reuse)
+                               reuse_jacobian=self.settings.jacobian_reuse and not self.full_newton)
         except LinearSolveError as exc:
             raise StepFailure(str(exc)) from exc
         if not res.converged:

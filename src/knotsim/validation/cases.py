@@ -14,6 +14,7 @@ import numpy as np
 from knotsim.validation.cantilever import LARGE_DEFLECTION_TIP, tip_position
 from knotsim.validation.contact import contact_cases
 from knotsim.validation.helix import helix_equilibrium, helix_reference
+from knotsim.validation.knots import overhand_tightening
 
 
 def _row(case, quantity, value, reference, error, tolerance, wall):
@@ -70,7 +71,8 @@ def helix(quick: bool = False) -> list[dict]:
 
 #: Registered cases: name -> function(quick) -> rows.
 CASES: dict[str, Callable[[bool], list[dict]]] = {"cantilever": cantilever, "helix": helix,
-                                                  "contact": contact_cases}
+                                                  "contact": contact_cases,
+                                                  "overhand_tightening": overhand_tightening}
 
 
 def run_cases(names=None, quick: bool = False) -> list[dict]:

@@ -1,0 +1,108 @@
+"""Protocol ``overhand-pull``: tightening of an open overhand knot (Choi, Tong & Jawed 2021;
+physics-notes 4.1).
+
+One rod (``L = 1 m``, ``N = 301``, ``h = 1.6 mm``, ``rho = 1180 kg/m^3``, ``E = 0.18 MPa``,
+Poisson 0.5, ``eta = 0.01 Pa s``, ``mu = 0.1``, ``dt = 0.5 ms``) tied as a loose overhand knot
+``overhand_n1`` ... ``overhand_n4``. The two end nodes at each end (and the angle of the edge
+between them) are clamped and moved apart along the initial end-to-end axis at ``pull_speed``
+(6 mm/s) each. The run lasts until the shortening ``e`` reaches ``e_final`` (0.25 m) unless
+``duration`` is given.
+
+Per-step log columns:
+
+- ``F`` (N): axial reaction on the clamped nodes of the last end (``pull_end``; positive in
+  tension); ``F_start`` (N): the same at the first end;
+- ``F_norm = F h^2 / EI``;
+- ``end_to_end`` (m) = ``|x_{N-1} - x_0|``; ``e = L - end_to_end`` (m); ``R = e / 2 pi`` (m);
+  ``sqrt_h_over_R = sqrt(h / R)``.
+
+Metrics: ``F_norm`` at ``e = 0.4, 0.35, 0.3, 0.25 m``, the peak ``F_norm``, the final ``e`` and
+``F_norm`` (mean over the last 0.25 s), and ``force_drop``: the first sudden drop of ``F_norm`` (loop inversion, see
+:func:`knotsim.protocols.metrics.slip_onset`, drop > 20 % of the running maximum, the first 10 % of
+the pull ignored as start-up transient), or ``None``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from knotsim.protocols.base import Protocol, RunContext, register, unit
+from knotsim.protocols.metrics import force_at, moving_average, slip_onset, window_mean, window_peak
+
+
+def force_drop(log) -> dict | None:
+    """First sudden drop of ``F_norm`` (loop inversion): more than 20 % below the running maximum of
+    the 0.5 s moving average, once that maximum exceeds a quarter of the largest (averaged) force;
+    the first 10 % of the pull is skipped as start-up transient. ``None`` if there is none."""
+    t_skip = 0.1 * float(log["time"].iloc[-1])
+    late = np.asarray(log["time"] >= t_skip)
+    fmax = float(np.max(moving_average(log, "F_norm", 0.5)[late])) if late.any() else 0.0
+    return slip_onset(log, "F_norm", mode="drop", drop_fraction=0.2, min_force=0.25 * max(fmax, 1e-12),
+                      smooth=0.5, t0=t_skip)
+
+
+class OverhandPull(Protocol):
+    name = "overhand-pull"
+    description = "Tighten an open overhand knot by pulling both clamped ends apart (Choi et al. 2021)"
+    kinds = ("overhand",)
+    default_knot = "overhand_n1"
+    defaults = {
+        "n_nodes": 301,
+        "radius": 1.6e-3,
+        "length": 1.0,
+        "mu": 0.1,
+        "dt": 5e-4,
+        "pull_speed": 6e-3,   # m/s per end
+        "e_final": 0.25,      # m, end of the pull (when duration is None)
+        "output_interval": 0.25,
+    }
+    fixed_geometry = ("n_nodes", "radius", "length")
+    quick = {"n_nodes": 81, "dt": 5e-3, "pull_speed": 0.03, "e_final": 0.29, "output_interval": 0.5}
+
+    def setup(self, ctx: RunContext) -> None:
+        x = ctx.geometry.ropes[0]
+        axis = unit(x[-1] - x[0])
+        v = float(ctx.params["pull_speed"])
+        ctx.data["axis"] = axis
+        ctx.data["e0"] = ctx.length - float(np.linalg.norm(x[-1] - x[0]))
+        ctx.bcs.move("pull_start", rod=0, nodes=[0, 1], path=list(-v * axis))
+        ctx.bcs.move("pull_end", rod=0, nodes=[-2, -1], path=list(v * axis))
+
+    def duration(self, ctx: RunContext) -> float:
+        e0 = ctx.data["e0"]
+        ef = float(ctx.params["e_final"])
+        v = float(ctx.params["pull_speed"])
+        return max(e0 - ef, 0.01 * ctx.length) / (2.0 * v)
+
+    def record(self, ctx: RunContext, q, t, reactions) -> dict:
+        m = ctx.model
+        axis = ctx.data["axis"]
+        x0 = q[m.node_dof[0]:m.node_dof[0] + 3]
+        x1 = q[m.node_dof[-1]:m.node_dof[-1] + 3]
+        ee = float(np.linalg.norm(x1 - x0))
+        e = ctx.length - ee
+        f_end = float(np.dot(reactions["pull_end"][:3], axis))
+        f_start = -float(np.dot(reactions["pull_start"][:3], axis))
+        R = e / (2.0 * math.pi)
+        return {"F": f_end, "F_start": f_start, "F_norm": f_end * ctx.radius**2 / ctx.EI,
+                "end_to_end": ee, "e": e, "R": R,
+                "sqrt_h_over_R": math.sqrt(ctx.radius / R) if R > 0 else math.nan}
+
+    def metrics(self, ctx: RunContext, log) -> dict:
+        drop = force_drop(log)
+        out = {f"F_norm_at_e_{int(round(ev * 1000))}mm": force_at(log, "e", ev) for ev in (0.4, 0.35, 0.3, 0.25)}
+        out.update({
+            "F_norm_peak": window_peak(log, "F_norm"),
+            "e_start": float(ctx.data["e0"]),
+            "e_final": float(log["e"].iloc[-1]),
+            "F_norm_final": window_mean(log, "F_norm", float(log["time"].iloc[-1]) - 0.25),  # last 0.25 s
+            "F_final": window_mean(log, "F", float(log["time"].iloc[-1]) - 0.25),
+            "force_drop": drop,
+            "force_drop_e": (float(np.interp(drop["time"], log["time"], log["e"])) if drop else None),
+        })
+        return out
+
+
+register(OverhandPull())

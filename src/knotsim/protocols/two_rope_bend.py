@@ -1,0 +1,256 @@
+"""Protocol ``two-rope-bend``: bends tied between two ropes (Patil et al., Science 2020;
+physics-notes 4.3).
+
+Reef, granny, thief and grief bends (``reef_bend``, ``granny_bend``, ``thief_bend``,
+``grief_bend``; ``h = 2 mm``, ``L = 1 m`` per rope, ``N = 301``). Loading as in Patil's study: the
+end of rope A named by the knot's ``held`` hint is clamped (its two end nodes and their edge
+angle), the end of rope B named by the ``pulled`` hint is pulled away along the axis from the
+held end to the pulled end, the two other ends (the tails) are free. Patil's friction was a
+viscous coupling, so only the ranking of the bends carries over, not the numbers; the default
+``mu`` is 0.3, the default time step 2 ms (none published; the solver stalls early in the run on
+the grief bend at 2.5 ms and on the thief bend at 1 and 1.5 ms, a known solver weakness).
+
+Two modes (parameter ``mode``):
+
+* ``"displacement"``: the pulled end (two nodes + edge angle) moves at ``pull_speed`` (m/s);
+  recorded: the axial reaction ``F`` (N) there;
+* ``"force"``: a total force ``F = force_rate * t`` (N, ``force_rate`` in N/s) along the axis is
+  applied to the two pulled end nodes (twist free); recorded: the applied ``F``.
+
+In both modes the log has ``F``, ``F_norm = F h^2 / EI``, ``F_held`` (N, axial reaction at the
+held end, positive in tension), ``u_pull`` (m): displacement of the pulled end along the axis
+since the start, and the tail lengths ``tail_a``, ``tail_b`` (m).
+
+Tail length (definition): the arc length from a free end to the first node, walking inwards,
+that lies within ``2h + delta + l/2`` (``l`` the edge length) of a node of the *other* rope, i.e.
+the length of the free tail outside the knot (a bend is held by the two ropes interlocking; a
+tail lying on its own standing part away from the knot does not count). Tail draw-in = decrease of the tail length over the
+run (positive when the knot swallows its tails); the pulled-end draw-in is the increase of
+``u_pull``. In force control ``u_pull`` is the displacement that answers the applied force.
+
+Metrics: mean and peak ``F_norm`` over the run, the slip onset (first drop of ``F_norm`` by more
+than 30 % below the running maximum of its 0.5 s moving average, once that maximum exceeds half
+the largest averaged force, in displacement control; in force control, the first time
+the pulled end runs away, its speed exceeding ``runaway_speed``; the first max(2 s, 20 %) of the
+run is skipped as start-up transient), tail and pulled-end draw-in.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from knotsim.errors import ConfigError
+from knotsim.protocols.base import Protocol, RunContext, end_group_nodes, register, unit
+from knotsim.protocols.metrics import moving_average, slip_onset, tail_draw_in, window_mean, window_peak
+
+
+def tail_lengths(ropes: list[np.ndarray], free_ends: list[tuple[int, int]], radius: float,
+                 delta: float) -> list[float]:
+    """Length (m) of each free tail outside the knot (see the module docstring).
+
+    Parameters
+    ----------
+    ropes:
+        ``(N_k, 3)`` node positions of each rope, m.
+    free_ends:
+        ``(rope index, end)`` with end 0 (first node) or 1 (last node).
+    radius, delta:
+        Rod radius ``h`` and contact tolerance, m.
+    """
+    out = []
+    for r, end in free_ends:
+        x = ropes[r]
+        seg = float(np.mean(np.linalg.norm(np.diff(x, axis=0), axis=1)))
+        cutoff = 2.0 * radius + delta + 0.5 * seg
+        others = np.concatenate([y for k, y in enumerate(ropes) if k != r])
+        near = cKDTree(others).query(x, distance_upper_bound=cutoff)[0] < np.inf
+        idx = np.flatnonzero(near)
+        if idx.size == 0:
+            out.append((len(x) - 1) * seg)
+        else:
+            out.append(float(idx[0] if end == 0 else len(x) - 1 - idx[-1]) * seg)
+    return out
+
+
+def _core(x: np.ndarray, others: np.ndarray, cutoff: float, pad: int) -> slice:
+    """Node range of ``x`` from its first to its last node within ``cutoff`` of ``others``
+    (padded by ``pad`` nodes); the whole rope when none is."""
+    idx = np.flatnonzero(cKDTree(others).query(x, distance_upper_bound=cutoff)[0] < np.inf)
+    if idx.size == 0:
+        return slice(0, len(x))
+    return slice(max(0, int(idx[0]) - pad), min(len(x), int(idx[-1]) + 1 + pad))
+
+
+def close_bend(ropes: list[np.ndarray], axis: np.ndarray, standing_a: tuple[int, int],
+               standing_b: tuple[int, int], core_cutoff: float | None = None, pad: int = 3) -> np.ndarray:
+    """Close a two-rope bend into one closed polygon (m) for knot identification.
+
+    Knot theory joins the two standing ends together and the two tails together (see
+    :func:`knotsim.knots.topology.bend_pairing`). Here the joins are explicit and far from the
+    knot: from each end a straight run outwards along ``-axis`` (ends of rope A's side) or
+    ``+axis`` (rope B's side) to ``D`` (ten times the size of the tangle), then the standing ends
+    are joined at height ``+D`` and the tails at ``-D`` along the normal of the plane of the axis
+    and the knot, so one join passes over everything and the other under everything and the two
+    joins are unlinked. (The radial closure of :func:`~knotsim.knots.topology.close_curves` finds
+    no generic projection for the thief and grief bends, whose standing and tail ends lie on
+    opposite corners.) For the reef and granny bends, whose standing ends and tails leave on the
+    same sides, this is the planar closure; for the thief and grief bends, whose standing ends and
+    tails are interleaved around the knot, one join must cross the other and the knot type is a
+    convention (standing join over, tails join under); it is the same at the start and the end.
+
+    Parameters
+    ----------
+    ropes:
+        The two ropes' ``(N, 3)`` node positions.
+    axis:
+        Unit pull axis, from rope A's standing end towards rope B's standing end.
+    standing_a, standing_b:
+        ``(rope index, end)`` of the standing ends (end 0 = first node, 1 = last node).
+    core_cutoff:
+        When given (m), each rope is first cut down to its part between its first and last node
+        within ``core_cutoff`` of the other rope (plus ``pad`` nodes), so that loose tails and
+        standing parts that flop across each other away from the knot do not change the closure.
+    """
+    ra, ea = standing_a
+    rb, eb = standing_b
+    ya, yb = ropes[ra], ropes[rb]
+    if core_cutoff is not None:
+        ya, yb = ya[_core(ya, yb, core_cutoff, pad)], yb[_core(yb, ya, core_cutoff, pad)]
+    a = ya if ea == 1 else ya[::-1]      # tail of A ... standing end of A
+    b = yb if eb == 0 else yb[::-1]      # standing end of B ... tail of B
+    allp = np.concatenate(ropes)
+    c = allp.mean(axis=0)
+    size = float(np.max(np.linalg.norm(allp - c, axis=1)))
+    D = 10.0 * max(size, 1e-6)
+    # normal of the knot plane: the direction of least spread orthogonal to the axis
+    rel = allp - c
+    rel = rel - np.outer(rel @ axis, axis)
+    w, v = np.linalg.eigh(rel.T @ rel)
+    nrm = np.cross(axis, v[:, -1])  # v[:, -1]: the in-plane direction of largest spread across the axis
+    if np.linalg.norm(nrm) < 1e-9:
+        nrm = np.cross(axis, [0.0, 0.0, 1.0] if abs(axis[2]) < 0.9 else [1.0, 0.0, 0.0])
+    # the sign of an eigenvector is arbitrary: orient the normal consistently (towards +z, else +y, +x),
+    # otherwise the over/under joins could swap between the start and the end of a run
+    for ref in (2, 1, 0):
+        if abs(nrm[ref]) > 1e-3 * np.linalg.norm(nrm):
+            nrm = nrm if nrm[ref] > 0 else -nrm
+            break
+    nrm /= np.linalg.norm(nrm)
+
+    def out(p, sign, dist):
+        along = float(np.dot(p - c, axis))
+        return p + (sign * dist - along) * axis
+
+    sa, sb, ta, tb = a[-1], b[0], a[0], b[-1]
+    s_out_a, s_out_b = out(sa, -1, D), out(sb, +1, D)
+    t_out_a, t_out_b = out(ta, -1, 1.1 * D), out(tb, +1, 1.1 * D)
+    standing = [s_out_a, s_out_a + D * nrm, s_out_b + D * nrm, s_out_b]
+    tails = [t_out_b, t_out_b - D * nrm, t_out_a - D * nrm, t_out_a]
+    return np.concatenate([a, np.array(standing), b, np.array(tails)])
+
+
+class TwoRopeBend(Protocol):
+    name = "two-rope-bend"
+    description = "Hold one end of rope A, pull the far end of rope B, tails free (Patil et al. 2020)"
+    kinds = ("bend",)
+    default_knot = "reef_bend"
+    defaults = {
+        "mu": 0.3,
+        "dt": 2e-3,  # s; no published value (the solver stalls on grief at 2.5 ms, on thief at 1 and 1.5 ms)
+        "mode": "displacement",
+        "pull_speed": 0.01,    # m/s (displacement mode)
+        "force_rate": 0.05,    # N/s (force mode)
+        "runaway_speed": 0.05,  # m/s, force mode: pulled end faster than this = slipping
+        "output_interval": 0.1,
+    }
+    quick = {"n_nodes": 101, "dt": 5e-3, "duration": 1.5, "output_interval": 0.5}
+
+    def setup(self, ctx: RunContext) -> None:
+        geo = ctx.geometry
+        if len(geo.ropes) != 2:
+            raise ConfigError("knot", f"two-rope-bend needs a knot of two ropes, {geo.name!r} has {len(geo.ropes)}")
+        if not geo.held or not geo.pulled:
+            raise ConfigError("knot", f"knot {geo.name!r} has no [loading] held/pulled hints")
+        mode = ctx.params["mode"]
+        if mode not in ("displacement", "force"):
+            raise ConfigError("mode", f"must be 'displacement' or 'force', got {mode!r}")
+        held, pulled = geo.held[0], geo.pulled[0]
+        if held.rope == pulled.rope:
+            raise ConfigError("knot", "the held and pulled ends must be on different ropes")
+        n = len(geo.ropes[0])
+        xa = geo.ropes[held.rope][held.node]
+        xb = geo.ropes[pulled.rope][pulled.node]
+        axis = unit(xb - xa)
+        ctx.data.update(axis=axis, held=held, pulled=pulled,
+                        held_end=0 if held.node == 0 else 1, pulled_end=0 if pulled.node == 0 else 1)
+        pull_nodes = end_group_nodes(pulled.node, n)
+        ctx.bcs.clamp("held", rod=held.rope, nodes=end_group_nodes(held.node, n))
+        if mode == "displacement":
+            v = float(ctx.params["pull_speed"])
+            ctx.bcs.move("pull", rod=pulled.rope, nodes=pull_nodes, path=list(v * axis))
+        else:
+            rate = float(ctx.params["force_rate"])
+            ctx.bcs.force("pull", rod=pulled.rope, nodes=pull_nodes,
+                          force=lambda t, a=axis, r=rate: r * t * a)
+        ctx.data["pull_nodes"] = ctx.model.global_nodes(pulled.rope, pull_nodes)
+        ctx.data["x_pull0"] = np.mean([geo.ropes[pulled.rope][i] for i in pull_nodes], axis=0)
+        ctx.data["free_ends"] = [(held.rope, 1 - ctx.data["held_end"]), (pulled.rope, 1 - ctx.data["pulled_end"])]
+
+    def duration(self, ctx: RunContext) -> float:
+        return 10.0
+
+    def closure(self, ctx: RunContext, curves):
+        """One closed curve: the knot core (each rope cut to its part within ``5h + delta`` of the
+        other rope), standing (held, pulled) ends joined far away *above* it, tails joined far away
+        *below* it (see :func:`close_bend`)."""
+        d = ctx.data
+        cutoff = 2.5 * 2.0 * ctx.radius + float(ctx.params.contact.get("delta", 5e-4))
+        return [close_bend(curves, d["axis"], (d["held"].rope, d["held_end"]), (d["pulled"].rope, d["pulled_end"]),
+                           core_cutoff=cutoff)], [True], None
+
+    def record(self, ctx: RunContext, q, t, reactions) -> dict:
+        m = ctx.model
+        axis = ctx.data["axis"]
+        x = m.node_positions(q)
+        u = float(np.dot(x[ctx.data["pull_nodes"]].mean(axis=0) - ctx.data["x_pull0"], axis))
+        if ctx.params["mode"] == "displacement":
+            f = float(np.dot(reactions["pull"][:3], axis))
+        else:
+            f = float(ctx.params["force_rate"]) * t
+        f_held = -float(np.dot(reactions["held"][:3], axis))
+        ropes = [x[m.rod_node_start[r]:m.rod_node_start[r + 1]] for r in range(m.n_rods)]
+        delta = float(ctx.params.contact.get("delta", 5e-4))
+        ta, tb = tail_lengths(ropes, ctx.data["free_ends"], ctx.radius, delta)
+        return {"F": f, "F_norm": f * ctx.radius**2 / ctx.EI, "F_held": f_held, "u_pull": u,
+                "tail_a": ta, "tail_b": tb}
+
+    def metrics(self, ctx: RunContext, log) -> dict:
+        t = np.asarray(log["time"], float)
+        out = {
+            "mode": ctx.params["mode"],
+            "F_norm_mean": window_mean(log, "F_norm"),
+            "F_norm_peak": window_peak(log, "F_norm"),
+            "F_norm_final": window_mean(log, "F_norm", float(log["time"].iloc[-1]) - 0.25),  # last 0.25 s
+            "tail_a_draw_in": tail_draw_in(log, "tail_a"),
+            "tail_b_draw_in": tail_draw_in(log, "tail_b"),
+            "pull_draw_in": tail_draw_in(log, "u_pull", kind="increase"),
+        }
+        t_skip = max(0.2 * t[-1], 2.0)  # skip the start-up transient
+        if ctx.params["mode"] == "displacement":
+            fmax = float(np.max(moving_average(log, "F_norm", 0.5)[t >= t_skip])) if t[-1] > t_skip else 0.0
+            out["slip_onset"] = slip_onset(log, "F_norm", mode="drop", drop_fraction=0.3,
+                                           min_force=0.5 * max(fmax, 1e-12), smooth=0.5, t0=t_skip)
+        else:
+            u = np.asarray(log["u_pull"], float)
+            speed = np.gradient(u, t) if len(t) > 2 else np.zeros_like(u)
+            fast = np.nonzero((t >= t_skip) & (speed > float(ctx.params["runaway_speed"])))[0]
+            out["slip_onset"] = ({"time": float(t[fast[0]]), "force": float(log["F_norm"].iloc[fast[0]]),
+                                  "detected_at": float(t[fast[0]])} if fast.size else None)
+        return out
+
+    def slipped(self, ctx: RunContext, metrics: dict) -> bool:
+        return metrics.get("slip_onset") is not None
+
+
+register(TwoRopeBend())

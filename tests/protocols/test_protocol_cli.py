@@ -1,0 +1,33 @@
+"""The ``knots`` and ``tie`` commands."""
+
+from __future__ import annotations
+
+import json
+
+from click.testing import CliRunner
+
+from knotsim.protocols.cli import knots, tie
+
+
+def test_knots_lists_library():
+    res = CliRunner().invoke(knots, [])
+    assert res.exit_code == 0, res.output
+    lines = res.output.strip().splitlines()
+    assert any(line.startswith("overhand_n1 ") and "overhand-pull" in line for line in lines)
+    assert any(line.startswith("reef_bend ") and "two-rope-bend" in line for line in lines)
+    assert len(lines) >= 10
+
+
+def test_tie_quick_and_bad_key(tmp_path):
+    out = tmp_path / "tie"
+    res = CliRunner().invoke(tie, ["overhand_n1", "--quick", "-o", str(out), "--set", "duration=0.5",
+                                   "--set", "n_nodes=61"])
+    assert res.exit_code == 0, res.output
+    assert "overhand-pull" in res.output and "F_norm_peak" in res.output
+    s = json.loads((out / "summary.json").read_text())
+    assert s["parameters"]["n_nodes"] == 61
+    bad = CliRunner().invoke(tie, ["overhand_n1", "-o", str(tmp_path / "x"), "--set", "nope=1"])
+    assert bad.exit_code == 2
+    assert "nope" in bad.output
+    bad = CliRunner().invoke(tie, ["no_such_knot", "-o", str(tmp_path / "y")])
+    assert bad.exit_code == 2

@@ -1,0 +1,136 @@
+"""Protocols end to end on coarse, short set-ups."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from knotsim.errors import ConfigError
+from knotsim.protocols import default_protocol, parse_assignments, resolve_params, run_protocol
+
+SUMMARY_KEYS = {"protocol", "knot", "parameters", "metrics", "outcome", "knot_status", "run_status", "topology",
+                "contact", "wall_time", "sim_time", "n_steps", "failed_attempts"}
+
+
+def _check_summary(out, s):
+    on_disk = json.loads((out / "summary.json").read_text())
+    assert SUMMARY_KEYS <= set(on_disk)
+    assert on_disk["run_status"] == "completed"
+    assert "worst_penetration_ratio" in on_disk["contact"]
+    assert on_disk["contact"]["worst_penetration_ratio"] < 0.2
+    assert (out / "log.parquet").exists() and (out / "trajectory.h5").exists()
+    assert s["parameters"] == on_disk["parameters"]
+    return on_disk
+
+
+def test_overhand_pull_tightens_trefoil(tmp_path):
+    out = tmp_path / "oh"
+    s = run_protocol("overhand-pull", "overhand_n1", out_dir=out,
+                     overrides={"n_nodes": 61, "dt": 5e-3, "pull_speed": 0.04, "duration": 5.0})
+    _check_summary(out, s)
+    assert s["topology"]["start"]["knot_type"] == "trefoil_right"
+    assert s["topology"]["end"]["knot_type"] == "trefoil_right"
+    assert s["outcome"] == "held"
+    assert s["parameters"]["n_nodes"] == 61 and s["parameters"]["mu"] == 0.1
+    log = pd.read_parquet(out / "log.parquet")
+    for col in ("F", "F_norm", "e", "R", "sqrt_h_over_R"):
+        assert col in log
+    # e = L - |x_N-1 - x_0| shrinks at twice the pull speed
+    assert log["e"].iloc[0] - log["e"].iloc[-1] == pytest.approx(2 * 0.04 * (5.0 - log["time"].iloc[0]), rel=1e-3)
+    # pull force positive and increasing while the knot tightens (1 s averages, transient skipped)
+    t = log["time"].to_numpy()
+    f = log["F_norm"].to_numpy()
+    means = [f[(t >= a) & (t < a + 1.0)].mean() for a in (1.0, 2.0, 3.0, 4.0)]
+    assert all(m > 0 for m in means)
+    assert means[-1] > means[0]
+    assert np.all(np.diff(means) > -0.1 * means[-1])
+
+
+def test_single_rod_bend_quick(tmp_path):
+    out = tmp_path / "srb"
+    s = run_protocol("single-rod-bend", "single_rod_granny", out_dir=out, quick=True,
+                     overrides={"duration": 1.0, "mean_window": 1.0})
+    _check_summary(out, s)
+    assert s["parameters"]["contact.delta"] == 5e-4 and s["parameters"]["dt"] == 5e-3
+    assert s["topology"]["start"]["knot_type"].startswith("granny")
+    m = s["metrics"]
+    assert {"F_norm_mean", "F_norm_peak", "slip_onset"} <= set(m)
+    assert np.isfinite(m["F_norm_mean"])
+    log = pd.read_parquet(out / "log.parquet")
+    assert {"F_start", "F_end", "knot_hold_fx"} <= set(log.columns)
+
+
+@pytest.mark.parametrize("mode", ["displacement", "force"])
+def test_two_rope_bend_quick(tmp_path, mode):
+    out = tmp_path / mode
+    s = run_protocol("two-rope-bend", "reef_bend", out_dir=out, quick=True,
+                     overrides={"mode": mode, "duration": 0.75, "n_nodes": 81})
+    _check_summary(out, s)
+    assert s["topology"]["start"]["knot_type"] == "reef"
+    m = s["metrics"]
+    assert {"F_norm_mean", "F_norm_peak", "tail_a_draw_in", "tail_b_draw_in", "pull_draw_in", "slip_onset"} <= set(m)
+    log = pd.read_parquet(out / "log.parquet")
+    assert {"F", "F_held", "u_pull", "tail_a", "tail_b"} <= set(log.columns)
+    assert (log["tail_a"] > 0.1).all()  # the free tails stay well outside the knot in this short pull
+    if mode == "force":
+        assert log["F"].iloc[-1] == pytest.approx(0.05 * log["time"].iloc[-1])
+
+
+def test_summary_without_out_dir_and_topology_failure_is_recorded(monkeypatch):
+    import knotsim.knots.topology as topo
+
+    def boom(*a, **k):
+        raise topo.TopologyError("synthetic failure")
+
+    monkeypatch.setattr(topo, "analyze", boom)
+    s = run_protocol("overhand-pull", "overhand_n1", overrides={"n_nodes": 41, "dt": 0.01, "duration": 0.05})
+    assert s["knot_status"] == "unknown"
+    assert "topology check failed" in s["outcome"] and "synthetic failure" in s["outcome"]
+    assert s["out_dir"] is None
+
+
+def test_bad_override_keys_name_the_key():
+    with pytest.raises(ConfigError, match="pull_sped"):
+        run_protocol("overhand-pull", overrides={"pull_sped": 0.01})
+    with pytest.raises(ConfigError, match="contact.deltaa"):
+        run_protocol("single-rod-bend", overrides={"contact.deltaa": 1e-3})
+    with pytest.raises(ConfigError, match="solver.foo"):
+        run_protocol("two-rope-bend", overrides={"solver.foo": 1})
+    with pytest.raises(ConfigError, match="mu"):
+        run_protocol("overhand-pull", overrides={"mu": "lots"})
+    with pytest.raises(ConfigError, match="protocol"):
+        run_protocol("no-such-protocol")
+
+
+def test_params_and_defaults():
+    assert parse_assignments(["mu=0.3", "contact.delta=1e-3", "mode=force", "n_nodes=101"]) == {
+        "mu": 0.3, "contact.delta": 1e-3, "mode": "force", "n_nodes": 101}
+    p = resolve_params({"mu": 0.1, "n_nodes": 301}, {"contact.mu": 0.4, "n_nodes": 61.0})
+    assert p["mu"] == 0.4 and p["n_nodes"] == 61 and isinstance(p["n_nodes"], int)
+    with pytest.raises(ConfigError, match="n_nodes"):
+        resolve_params({"n_nodes": 301}, {"n_nodes": 60.5})
+    assert default_protocol("overhand_n3") == "overhand-pull"
+    assert default_protocol("single_rod_reef") == "single-rod-bend"
+    assert default_protocol("grief_bend") == "two-rope-bend"
+
+
+def test_bend_closure_identifies_all_four_bends():
+    from knotsim.knots.library import get_knot
+    from knotsim.knots.topology import analyze
+    from knotsim.protocols.base import unit
+    from knotsim.protocols.two_rope_bend import close_bend
+
+    types = {}
+    for name in ("reef_bend", "granny_bend", "thief_bend", "grief_bend"):
+        g = get_knot(name, n_nodes=81)
+        h, p = g.held[0], g.pulled[0]
+        axis = unit(g.ropes[p.rope][p.node] - g.ropes[h.rope][h.node])
+        c = close_bend(list(g.ropes), axis, (h.rope, int(h.node > 0)), (p.rope, int(p.node > 0)))
+        types[name] = analyze([c], [True]).knot_type
+    assert types["reef_bend"] == "reef"
+    assert types["granny_bend"].startswith("granny")
+    assert types["thief_bend"] not in ("unknot", "unknown", types["reef_bend"])
+    assert types["grief_bend"] not in ("unknot", "unknown", types["granny_bend"])
