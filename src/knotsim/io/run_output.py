@@ -34,6 +34,7 @@ class RunOutput:
         self.writer = TrajectoryWriter(self.dir / "trajectory.h5", m.rod_node_start, m.rod_edge_start, m.rod_closed,
                                        m.rod_radius, m.rod_names, flush_every=16)
         self._next = None
+        self._last_time = None
         self._rows_start = len(sim.rows)
         self.sim = sim
         self.started = _time.strftime("%Y-%m-%dT%H:%M:%S%z")
@@ -41,6 +42,7 @@ class RunOutput:
     def frame(self, sim) -> None:
         q = sim.state.q
         self.writer.append(sim.state.time, self.model.node_positions(q), self.model.edge_angles(q))
+        self._last_time = sim.state.time
         if self.interval:
             self._next = sim.state.time + self.interval
 
@@ -49,6 +51,9 @@ class RunOutput:
             self.frame(sim)
 
     def close(self, outcome: str, wall_time: float, t_start: float) -> None:
+        # the final state is always a frame, whatever the output interval
+        if self._last_time is None or self.sim.state.time > self._last_time:
+            self.frame(self.sim)
         self.writer.close()
         log = self.sim.log()
         log.to_parquet(self.dir / "log.parquet", index=False)
