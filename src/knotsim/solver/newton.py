@@ -37,7 +37,9 @@ class NewtonResult:
     """Outcome of :func:`newton_solve`.
 
     ``residual`` and ``step`` are in tolerance units (converged means ``residual <= 1`` and
-    ``step <= 1``, or ``residual <= 0.01``); ``reason`` says why it stopped when not converged.
+    ``step <= 1``, or ``residual <= 0.01``, or ``residual <= 10`` with ``step <= 0.01`` when
+    round-off stops the residual from falling further); ``reason`` says why it stopped when not
+    converged.
     """
 
     q: np.ndarray
@@ -74,7 +76,9 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
     for it in range(max_iterations + 1):
         if not np.isfinite(rn):
             return NewtonResult(q, False, it, rn, step, cuts_total, "residual is not finite")
-        if rn <= 0.01 or (rn <= 1.0 and it > 0 and step <= 1.0):
+        # converged: residual and last step within tolerance; or residual far below tolerance; or
+        # (stagnation at round-off) residual within 10x tolerance while steps are 100x below theirs
+        if rn <= 0.01 or (it > 0 and ((rn <= 1.0 and step <= 1.0) or (rn <= 10.0 and step <= 0.01))):
             return NewtonResult(q, True, it, rn, step if it else 0.0, cuts_total)
         if it == max_iterations:
             break

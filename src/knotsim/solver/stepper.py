@@ -71,7 +71,7 @@ class SolverSettings:
 
     dt: float = 1e-3
     dt_min: float | None = None
-    max_iterations: int = 25
+    max_iterations: int = 50
     force_tol: float | None = None
     moment_tol: float | None = None
     step_tol: float | None = None
