@@ -18,7 +18,6 @@ heavy modules inside the function so that ``knotsim --help`` stays fast.
 
 from __future__ import annotations
 
-import functools
 import importlib
 import json
 import math
@@ -28,35 +27,12 @@ from pathlib import Path
 import click
 
 import knotsim
-from knotsim.errors import KnotsimError, SimulationError
 
 #: Exit codes.
-EXIT_FAILED_CHECKS = 1
-EXIT_BAD_INPUT = 2
-EXIT_SIMULATION = 3
-
-
-def _error(message: str, code: int):
-    """Print ``message`` on stderr and exit with ``code``."""
-    click.echo(f"error: {message}", err=True)
-    raise click.exceptions.Exit(code)
-
-
-def _exit_codes(func):
-    """Turn knotsim's errors into a one-line message on stderr and an exit code."""
-
-    @functools.wraps(func)
-    def wrapper(*args, **kwargs):
-        try:
-            return func(*args, **kwargs)
-        except SimulationError as exc:
-            _error(f"simulation failed: {exc}", EXIT_SIMULATION)
-        except KnotsimError as exc:  # ConfigError, GeometryError, ...
-            _error(str(exc), EXIT_BAD_INPUT)
-        except FileNotFoundError as exc:
-            _error(str(exc), EXIT_BAD_INPUT)
-
-    return wrapper
+from knotsim._cli_errors import EXIT_BAD_INPUT, EXIT_FAILED_CHECKS
+from knotsim._cli_errors import error as _error
+from knotsim._cli_errors import exit_codes as _exit_codes
+from knotsim.errors import SimulationError
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})

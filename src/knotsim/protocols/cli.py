@@ -10,31 +10,13 @@ Exit codes as for the other commands: 0 success, 2 bad input (unknown knot, prot
 
 from __future__ import annotations
 
-import functools
 import json
 from pathlib import Path
 
 import click
 
-from knotsim.errors import KnotsimError
-
-EXIT_BAD_INPUT = 2
-EXIT_SIMULATION = 3
-
-
-def _exit_codes(func):
-    @functools.wraps(func)
-    def wrapper(*args, **kwargs):
-        try:
-            return func(*args, **kwargs)
-        except KnotsimError as exc:
-            click.echo(f"error: {exc}", err=True)
-            raise click.exceptions.Exit(EXIT_BAD_INPUT) from None
-        except FileNotFoundError as exc:
-            click.echo(f"error: {exc}", err=True)
-            raise click.exceptions.Exit(EXIT_BAD_INPUT) from None
-
-    return wrapper
+from knotsim._cli_errors import EXIT_SIMULATION
+from knotsim._cli_errors import exit_codes as _exit_codes
 
 
 @click.command()

@@ -84,11 +84,7 @@ def solve_static(model, control=None, state: State | None = None, settings: Solv
                     "the structure may be unstable (buckling) or under-constrained (add a clamp)",
                     last_good_state=state, time=state.time)
             continue
-        stepper.elastic.update_frames(res.q, system.source)
-        state.q = res.q
-        state.d1 = stepper.elastic.d1.copy()
-        state.tangents = stepper.elastic.tangents.copy()
-        state.ref_twist = stepper.elastic.ref_twist.copy()
+        stepper.store_configuration(state, res.q, system.source)
         state.v[:] = 0.0
         lam = target
         increments += 1
@@ -126,11 +122,7 @@ def _pseudo_transient(stepper, state: State, fixed, load, q0, tau0: float = 1e-3
             if tau < 1e-9:
                 return None
             continue
-        stepper.elastic.update_frames(res.q, system.source)
-        s.q = res.q
-        s.d1 = stepper.elastic.d1.copy()
-        s.tangents = stepper.elastic.tangents.copy()
-        s.ref_twist = stepper.elastic.ref_twist.copy()
+        stepper.store_configuration(s, res.q, system.source)
         if res.iterations <= 4:
             tau *= 4.0
         # try the plain static problem from here

@@ -331,6 +331,16 @@ class Stepper:
             self.factorizations += 1
         return self._active.solve(rhs)
 
+    def store_configuration(self, state: State, q: np.ndarray, source: FrameSource) -> None:
+        """Set ``state.q`` to ``q`` with its tangents, reference directors and reference twist
+        (transported from ``source``; recomputed, since the last evaluation may have been a
+        line-search trial at another point)."""
+        self.elastic.update_frames(q, source)
+        state.q = q
+        state.d1 = self.elastic.d1.copy()
+        state.tangents = self.elastic.tangents.copy()
+        state.ref_twist = self.elastic.ref_twist.copy()
+
     # -- stepping -------------------------------------------------------------------------
     def step(self, state_in: State, state_out: State, control, dt: float) -> StepResult:
         """Advance ``state_in`` by ``dt`` (s) into ``state_out`` (may be the same object only if
@@ -358,18 +368,13 @@ class Stepper:
             if reason:
                 raise StepFailure(reason)
         q = res.q
-        # frames at the solution (the last evaluation may have been a line-search trial)
-        self.elastic.update_frames(q, system.source)
         v_new = (q - state_in.q) / dt
         energies = dict(system.energies)
         energies["kinetic"] = 0.5 * float(np.dot(m.mass * v_new, v_new))
         energies["gravity"] = -float(np.dot(self.gravity_force, q))
         reactions = control.reactions(t_new, system.last_full_residual) if control else {}
-        state_out.q = q
+        self.store_configuration(state_out, q, system.source)
         state_out.v = v_new
-        state_out.d1 = self.elastic.d1.copy()
-        state_out.tangents = self.elastic.tangents.copy()
-        state_out.ref_twist = self.elastic.ref_twist.copy()
         state_out.time = t_new
         stats = {}
         for inter in self.interactions:

@@ -11,36 +11,16 @@ Exit codes as in :mod:`knotsim.cli`: 0 success; 1 some cases of the study failed
 
 from __future__ import annotations
 
-import functools
 import time
 from pathlib import Path
 
 import click
 
-EXIT_FAILED_CASES = 1
-EXIT_BAD_INPUT = 2
-EXIT_SIMULATION = 3
+from knotsim._cli_errors import EXIT_BAD_INPUT, EXIT_SIMULATION  # noqa: F401  (documented codes)
+from knotsim._cli_errors import EXIT_FAILED_CHECKS as EXIT_FAILED_CASES
+from knotsim._cli_errors import exit_codes as _exit_codes
 
 __all__ = ["animate", "report", "study"]
-
-
-def _exit_codes(func):
-    """knotsim's errors as a one-line message on stderr and an exit code (as in knotsim.cli)."""
-
-    @functools.wraps(func)
-    def wrapper(*args, **kwargs):
-        from knotsim.errors import KnotsimError, SimulationError
-
-        try:
-            return func(*args, **kwargs)
-        except SimulationError as exc:
-            click.echo(f"error: simulation failed: {exc}", err=True)
-            raise click.exceptions.Exit(EXIT_SIMULATION) from None
-        except (KnotsimError, FileNotFoundError) as exc:
-            click.echo(f"error: {exc}", err=True)
-            raise click.exceptions.Exit(EXIT_BAD_INPUT) from None
-
-    return wrapper
 
 
 def _fmt_time(s: float | None) -> str:
