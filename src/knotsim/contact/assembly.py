@@ -169,16 +169,3 @@ def approach_forces(q, v, dt, pair_dofs, pair_d, tol, node_mass):
             fmax = f
     return fmax
 
-
-@njit(cache=True)
-def pair_gaps(q, pair_dofs, pair_d):
-    """Gap ``Delta - d`` (m) of every pair at ``q``: ``(k,)`` float64."""
-    k = pair_dofs.shape[0]
-    out = np.empty(k)
-    p = np.empty(12)
-    for c in range(k):
-        for i in range(12):
-            p[i] = q[pair_dofs[c, i]]
-        delta, _, _, _ = edge_edge_distance(p)
-        out[c] = delta - pair_d[c]
-    return out
