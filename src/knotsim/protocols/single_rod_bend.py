@@ -9,14 +9,25 @@ rod). The node given by the knot's ``held`` hint (the bottom of the first overha
 (:meth:`~knotsim.bc.BoundaryConditions.hold`, positions only) for ``hold_time`` s (default
 ``None``: the whole run; 0: no hold), which stops the first overhand from inverting.
 
-Per-step log columns: ``F_start``, ``F_end`` (N): axial traction on the clamped end edges
-(positive in tension); ``F`` = their mean; ``F_norm = F h^2 / EI``; ``end_to_end`` (m).
+Pre-tightening (``pre_pull``, default 0 = off): how loose the knot is at the start of the measured
+pull is not given by the report, and the library drawings are loose (end-to-end distance about
+0.29 L, so about 0.7 m of rod is in the knot). With ``pre_pull = p`` (m) the ends are first moved
+apart by a further ``p`` in total (``p / 2`` each) at ``pre_pull_speed`` per end (default: the
+``pull_speed``), taking ``t_pre = p / (2 pre_pull_speed)``; the measured pull then follows at
+``pull_speed`` without a pause, and every metric and report time below refers to the pull time
+``t_pull = t - t_pre`` (the run lasts ``t_pre + mean_window`` unless ``duration`` is given).
+``hold_time`` counts from the start of the run.
 
-Metrics: mean and peak ``F_norm`` over the pull window ``[0, mean_window]`` s (13 s), ``F_norm``
-at 2.5, 5, 7.5, 10, 12.5 s, and the slip onset (first drop of ``F_norm`` by more than 30 % below
+Per-step log columns: ``F_start``, ``F_end`` (N): axial traction on the clamped end edges
+(positive in tension); ``F`` = their mean; ``F_norm = F h^2 / EI``; ``end_to_end`` (m); ``t_pull``
+(s, negative during the pre-tightening).
+
+Metrics: mean and peak ``F_norm`` over the pull window ``t_pull in [0, mean_window]`` s (13 s),
+``F_norm`` at 2.5, 5, 7.5, 10, 12.5 s, and the slip onset (first drop of ``F_norm`` by more than 30 % below
 its 0.5 s moving average's running maximum, once that maximum exceeds half the largest averaged
 force, after the first max(2 s, 20 %) of the pull, see
-:func:`knotsim.protocols.metrics.slip_onset`); a slip is reported as the outcome ``"slipped"``.
+:func:`knotsim.protocols.metrics.slip_onset`); a slip is reported as the outcome ``"slipped"``; also
+``pre_pull_time`` (s) and ``end_to_end_at_window_start`` (m).
 """
 
 from __future__ import annotations
@@ -25,11 +36,32 @@ import math
 
 import numpy as np
 
+from knotsim.errors import ConfigError
 from knotsim.protocols.base import Protocol, RunContext, register, unit
 from knotsim.protocols.metrics import moving_average, slip_onset, window_mean, window_peak
 
 #: Times (s) at which F h^2/EI was read off the published figure.
 REPORT_TIMES = (2.5, 5.0, 7.5, 10.0, 12.5)
+
+
+def pre_pull_time(params) -> float:
+    """Duration (s) of the pre-tightening: ``pre_pull / (2 pre_pull_speed)`` (0 when off).
+
+    Raises
+    ------
+    ConfigError
+        For a negative ``pre_pull`` or a non-positive speed.
+    """
+    p = float(params["pre_pull"] or 0.0)
+    if p < 0 or not math.isfinite(p):
+        raise ConfigError("pre_pull", f"must be a separation >= 0 in m, got {p!r}")
+    if p == 0:
+        return 0.0
+    v = params["pre_pull_speed"]
+    v = float(params["pull_speed"] if v is None else v)
+    if not v > 0:
+        raise ConfigError("pre_pull_speed", f"must be a speed > 0 in m/s, got {v!r}")
+    return p / (2.0 * v)
 
 
 class SingleRodBend(Protocol):
@@ -48,6 +80,8 @@ class SingleRodBend(Protocol):
         "pull_speed": 0.01,     # m/s per end
         "mean_window": 13.0,    # s
         "hold_time": None,      # s, how long the held node stays held (None: the whole run)
+        "pre_pull": 0.0,        # m, end-to-end separation added before the measured pull (0: none)
+        "pre_pull_speed": None,  # m/s per end during the pre-tightening (None: pull_speed)
         "output_interval": 0.1,
     }
     fixed_geometry = ("n_nodes", "radius", "length")
@@ -59,8 +93,20 @@ class SingleRodBend(Protocol):
         axis = unit(x[-1] - x[0])
         ctx.data["axis"] = axis
         v = float(ctx.params["pull_speed"])
-        ctx.bcs.move("pull_start", rod=0, nodes=[0, 1], path=list(-v * axis))
-        ctx.bcs.move("pull_end", rod=0, nodes=[-2, -1], path=list(v * axis))
+        t_pre = pre_pull_time(ctx.params)
+        ctx.data["t_pre"] = t_pre
+        if t_pre > 0:
+            v_pre = float(ctx.params["pre_pull_speed"] or v)
+
+            def travel(t, v=v, v_pre=v_pre, t_pre=t_pre):
+                """Distance (m) one end has moved after ``t`` s: fast pre-tightening, then the pull."""
+                return v_pre * min(t, t_pre) + v * max(t - t_pre, 0.0)
+
+            ctx.bcs.move("pull_start", rod=0, nodes=[0, 1], path=lambda t: -travel(t) * axis)
+            ctx.bcs.move("pull_end", rod=0, nodes=[-2, -1], path=lambda t: travel(t) * axis)
+        else:
+            ctx.bcs.move("pull_start", rod=0, nodes=[0, 1], path=list(-v * axis))
+            ctx.bcs.move("pull_end", rod=0, nodes=[-2, -1], path=list(v * axis))
         held = [h.node for h in ctx.geometry.held if h.rope == 0]
         ht = ctx.params["hold_time"]
         hold_time = math.inf if ht is None else float(ht)
@@ -69,7 +115,7 @@ class SingleRodBend(Protocol):
         ctx.data["held_nodes"] = held
 
     def duration(self, ctx: RunContext) -> float:
-        return float(ctx.params["mean_window"])
+        return ctx.data.get("t_pre", 0.0) + float(ctx.params["mean_window"])
 
     def record(self, ctx: RunContext, q, t, reactions) -> dict:
         m = ctx.model
@@ -80,16 +126,24 @@ class SingleRodBend(Protocol):
         f_start = -float(np.dot(reactions["pull_start"][:3], axis))
         f = 0.5 * (f_start + f_end)
         return {"F": f, "F_start": f_start, "F_end": f_end, "F_norm": f * ctx.radius**2 / ctx.EI,
-                "end_to_end": float(np.linalg.norm(x1 - x0))}
+                "end_to_end": float(np.linalg.norm(x1 - x0)), "t_pull": float(t) - ctx.data.get("t_pre", 0.0)}
 
     def metrics(self, ctx: RunContext, log) -> dict:
         w = float(ctx.params["mean_window"])
+        t_pre = float(ctx.data.get("t_pre", 0.0))
+        if t_pre > 0:  # metrics on the pull time t - t_pre, restricted to the measured pull
+            log = log[log["time"] >= t_pre - 1e-9].copy()
+            log["time"] = log["time"] - t_pre
+        if not len(log):
+            return {"pre_pull_time": t_pre}
         t = np.asarray(log["time"], float)
         out = {
             "F_norm_mean": window_mean(log, "F_norm", 0.0, w),
             "F_norm_peak": window_peak(log, "F_norm", 0.0, w),
             "mean_window": w,
             "F_norm_final": window_mean(log, "F_norm", float(log["time"].iloc[-1]) - 0.25),  # last 0.25 s
+            "pre_pull_time": t_pre,
+            "end_to_end_at_window_start": float(log["end_to_end"].iloc[0]),
         }
         for tr in REPORT_TIMES:
             if tr <= t[-1] + 1e-9:
@@ -97,8 +151,9 @@ class SingleRodBend(Protocol):
                 out[f"F_norm_at_{tr:g}s"] = float(np.mean(log["F_norm"].iloc[k]))
         t_skip = max(0.2 * t[-1], 2.0)  # skip the start-up transient
         fmax = float(np.max(moving_average(log, "F_norm", 0.5)[t >= t_skip])) if t[-1] > t_skip else 0.0
-        out["slip_onset"] = slip_onset(log, "F_norm", mode="drop", drop_fraction=0.3,
-                                       min_force=0.5 * max(fmax, 1e-12), smooth=0.5, t0=t_skip)
+        onset = slip_onset(log, "F_norm", mode="drop", drop_fraction=0.3,
+                           min_force=0.5 * max(fmax, 1e-12), smooth=0.5, t0=t_skip)
+        out["slip_onset"] = onset
         return out
 
     def slipped(self, ctx: RunContext, metrics: dict) -> bool:
