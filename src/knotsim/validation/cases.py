@@ -15,6 +15,7 @@ from knotsim.validation.cantilever import LARGE_DEFLECTION_TIP, tip_position
 from knotsim.validation.contact import contact_cases
 from knotsim.validation.helix import helix_equilibrium, helix_reference
 from knotsim.validation.knots import overhand_tightening
+from knotsim.validation.single_rod import single_rod_bend
 
 
 def _row(case, quantity, value, reference, error, tolerance, wall):
@@ -72,7 +73,8 @@ def helix(quick: bool = False) -> list[dict]:
 #: Registered cases: name -> function(quick) -> rows.
 CASES: dict[str, Callable[[bool], list[dict]]] = {"cantilever": cantilever, "helix": helix,
                                                   "contact": contact_cases,
-                                                  "overhand_tightening": overhand_tightening}
+                                                  "overhand_tightening": overhand_tightening,
+                                                  "single_rod_bend": single_rod_bend}
 
 
 def run_cases(names=None, quick: bool = False) -> list[dict]:

@@ -1,0 +1,83 @@
+"""The single-rod protocol's pre-tightening knob (``pre_pull``) and the ``single_rod`` validate case."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from knotsim.errors import ConfigError
+from knotsim.protocols import run_protocol
+from knotsim.protocols.single_rod_bend import SingleRodBend, pre_pull_time
+
+
+def test_pre_pull_default_is_off():
+    assert SingleRodBend.defaults["pre_pull"] == 0.0
+    assert SingleRodBend.defaults["pre_pull_speed"] is None
+    assert pre_pull_time({"pre_pull": 0.0, "pre_pull_speed": None, "pull_speed": 0.01}) == 0.0
+    assert pre_pull_time({"pre_pull": 0.42, "pre_pull_speed": None, "pull_speed": 0.01}) == pytest.approx(21.0)
+    assert pre_pull_time({"pre_pull": 0.3, "pre_pull_speed": 0.05, "pull_speed": 0.01}) == pytest.approx(3.0)
+    with pytest.raises(ConfigError, match="pre_pull"):
+        pre_pull_time({"pre_pull": -0.1, "pre_pull_speed": None, "pull_speed": 0.01})
+    with pytest.raises(ConfigError, match="pre_pull_speed"):
+        pre_pull_time({"pre_pull": 0.1, "pre_pull_speed": 0.0, "pull_speed": 0.01})
+
+
+def test_pre_pull_moves_the_ends_then_measures_the_window(tmp_path):
+    out = tmp_path / "pre"
+    s = run_protocol("single-rod-bend", "single_rod_reef", out_dir=out, quick=True,
+                     overrides={"pre_pull": 0.1, "pre_pull_speed": 0.05, "mean_window": 0.5, "duration": None})
+    assert s["run_status"] == "completed"
+    m = s["metrics"]
+    assert m["pre_pull_time"] == pytest.approx(1.0)
+    assert s["parameters"]["duration"] == pytest.approx(1.5)  # t_pre + mean_window
+    log = pd.read_parquet(out / "log.parquet")
+    t, tp, e2e = (log[c].to_numpy() for c in ("time", "t_pull", "end_to_end"))
+    np.testing.assert_allclose(tp, t - 1.0)
+    e0 = e2e[0] - 2 * 0.05 * t[0]
+    # the ends separate at 2 x 50 mm/s for 1 s, then at 2 x 20 mm/s (the quick pull speed)
+    expect = e0 + np.where(t <= 1.0, 0.1 * t, 0.1 + 0.04 * (t - 1.0))
+    np.testing.assert_allclose(e2e, expect, atol=1e-9)
+    assert m["end_to_end_at_window_start"] == pytest.approx(e0 + 0.1, abs=1e-3)
+    assert math.isfinite(m["F_norm_mean"]) and m["mean_window"] == 0.5
+    assert s["topology"]["end"]["knot_type"] == s["topology"]["start"]["knot_type"]
+
+
+def _fake_summary(knot_type, f_final, pen=0.01, status="completed"):
+    topo = {"knot_type": knot_type, "signature": knot_type}
+    return {"run_status": status, "topology": {"start": topo, "end": dict(topo)},
+            "contact": {"worst_penetration_ratio": pen},
+            "metrics": {"F_norm_final": f_final, "end_to_end_at_window_start": 0.787, "mean_window": 3.0}}
+
+
+def test_single_rod_validate_case_rows(monkeypatch):
+    import knotsim.protocols as P
+    from knotsim.validation.cases import CASES
+    from knotsim.validation.single_rod import JAMMED_REFERENCE, QUICK, single_rod_bend
+
+    assert CASES["single_rod_bend"] is single_rod_bend
+    calls = []
+
+    def fake(name, knot, overrides=None, quick=False, **kw):
+        calls.append((name, knot, dict(overrides)))
+        k = knot.split("_")[-1]
+        return _fake_summary(k, JAMMED_REFERENCE[(k, True)] * 1.3)
+
+    monkeypatch.setattr(P, "run_protocol", fake)
+    rows = single_rod_bend(quick=True)
+    assert [c[1] for c in calls] == ["single_rod_reef", "single_rod_granny"]
+    assert all(c[2]["n_nodes"] == QUICK["n_nodes"] and c[2]["mu"] == 0.1 for c in calls)
+    assert len(rows) == 6 and all(r["passed"] for r in rows), rows
+    assert {"case", "quantity", "value", "reference", "error", "tolerance", "passed", "wall_time"} <= set(rows[0])
+
+    # failures: knot type changed, deep penetration, no load / non-finite force
+    def bad(name, knot, overrides=None, quick=False, **kw):
+        s = _fake_summary("reef", float("nan") if "granny" in knot else 1e-4, pen=0.5)
+        s["topology"]["end"] = {"knot_type": "unknot", "signature": "unknot"}
+        return s
+
+    monkeypatch.setattr(P, "run_protocol", bad)
+    rows = single_rod_bend(quick=True)
+    assert not any(r["passed"] for r in rows)
