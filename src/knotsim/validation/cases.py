@@ -11,6 +11,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from knotsim.validation.bends import bends
 from knotsim.validation.cantilever import LARGE_DEFLECTION_TIP, tip_position
 from knotsim.validation.contact import contact_cases
 from knotsim.validation.helix import helix_equilibrium, helix_reference
@@ -74,7 +75,8 @@ def helix(quick: bool = False) -> list[dict]:
 CASES: dict[str, Callable[[bool], list[dict]]] = {"cantilever": cantilever, "helix": helix,
                                                   "contact": contact_cases,
                                                   "overhand_tightening": overhand_tightening,
-                                                  "single_rod_bend": single_rod_bend}
+                                                  "single_rod_bend": single_rod_bend,
+                                                  "bends": bends}
 
 
 def run_cases(names=None, quick: bool = False) -> list[dict]:
