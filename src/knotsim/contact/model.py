@@ -45,7 +45,12 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from knotsim.contact.assembly import approach_forces, contact_evaluate, nodal_force_summary, pair_dofs_from_edges
+from knotsim.contact.assembly import (
+    approach_forces,
+    contact_evaluate,
+    nodal_force_summary,
+    pair_dofs_from_edges,
+)
 from knotsim.contact.broadphase import find_candidate_pairs, node_drift
 from knotsim.errors import ConfigError
 
