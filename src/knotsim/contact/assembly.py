@@ -169,3 +169,37 @@ def approach_forces(q, v, dt, pair_dofs, pair_d, tol, node_mass):
             fmax = f
     return fmax
 
+
+
+@njit(cache=True)
+def nodal_force_summary(pair_dofs, pair_fc, pair_ff, node_dof, n_dofs):
+    """Per-node totals of the pairs' contact and friction forces.
+
+    Parameters
+    ----------
+    pair_dofs : (k, 12) int64; pair_fc, pair_ff : (k, 12) float64 contact and friction forces (N)
+        on the pairs' coordinates; node_dof : (n_nodes,) int64 index of each node's x in ``q``.
+
+    Returns
+    -------
+    ``(largest nodal contact force magnitude, half the sum of nodal contact force magnitudes,
+    half the sum of nodal friction force magnitudes)``, N.
+    """
+    fc = np.zeros(n_dofs)
+    ff = np.zeros(n_dofs)
+    for k in range(pair_dofs.shape[0]):
+        for m in range(12):
+            fc[pair_dofs[k, m]] += pair_fc[k, m]
+            ff[pair_dofs[k, m]] += pair_ff[k, m]
+    fmax = 0.0
+    fc_tot = 0.0
+    ff_tot = 0.0
+    for i in range(node_dof.shape[0]):
+        a = node_dof[i]
+        c = np.sqrt(fc[a] * fc[a] + fc[a + 1] * fc[a + 1] + fc[a + 2] * fc[a + 2])
+        f = np.sqrt(ff[a] * ff[a] + ff[a + 1] * ff[a + 1] + ff[a + 2] * ff[a + 2])
+        fc_tot += c
+        ff_tot += f
+        if c > fmax:
+            fmax = c
+    return fmax, 0.5 * fc_tot, 0.5 * ff_tot

@@ -412,3 +412,37 @@ def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
         out[k, 0] = pairs[by_both[k], 0]
         out[k, 1] = pairs[by_both[k], 1]
     return out
+
+
+@njit(cache=True)
+def node_drift(q, q_build, node_dof):
+    """Drift (m) of the nodes since ``q_build``: ``max_i |u_i - c|``.
+
+    ``u_i`` (m) is the displacement of node ``i`` (x at ``q[node_dof[i]]``) between ``q_build``
+    and ``q``, ``c`` the centre of the bounding box of all ``u_i``. Two nodes come closer by at most
+    ``|u_a - u_b| <= 2 max_i |u_i - c|``, whatever the common translation of the rods.
+    """
+    n = node_dof.shape[0]
+    lo = np.full(3, np.inf)
+    hi = np.full(3, -np.inf)
+    for i in range(n):
+        a = node_dof[i]
+        for k in range(3):
+            u = q[a + k] - q_build[a + k]
+            if u < lo[k]:
+                lo[k] = u
+            if u > hi[k]:
+                hi[k] = u
+    c0 = 0.5 * (lo[0] + hi[0])
+    c1 = 0.5 * (lo[1] + hi[1])
+    c2 = 0.5 * (lo[2] + hi[2])
+    worst = 0.0
+    for i in range(n):
+        a = node_dof[i]
+        u0 = q[a] - q_build[a] - c0
+        u1 = q[a + 1] - q_build[a + 1] - c1
+        u2 = q[a + 2] - q_build[a + 2] - c2
+        d = u0 * u0 + u1 * u1 + u2 * u2
+        if d > worst:
+            worst = d
+    return np.sqrt(worst)

@@ -5,13 +5,17 @@
 
 Candidate pairs (:meth:`ContactInteraction.begin_step`) come from the broad phase: every pair of
 edges closer than ``h_a + h_b + delta + margin``. The list is kept as a Verlet list: rebuilt when
-some node has moved more than ``margin / 2`` since the last build, reused otherwise (the Jacobian
-pattern then stays the same from step to step); it is fixed during a Newton solve. During Newton
+the nodes' *drift* since the last build exceeds ``margin / 2``, reused otherwise (the Jacobian
+pattern then stays the same from step to step). The drift is ``max_i |u_i - c|`` over the node
+displacements ``u_i`` since the build, with ``c`` the centre of their bounding box: two nodes
+approach each other by at most ``|u_a - u_b| <= 2 drift``, so a pair outside the list cannot come
+within the cut-off before the drift exceeds ``margin / 2``, while a common translation of the
+rods costs nothing; it is fixed during a Newton solve. During Newton
 every candidate pair contributes the IMC energy ``k_c E(Δ)`` (:mod:`knotsim.contact.potential`) and,
 when ``μ > 0``, the fully implicit smooth Coulomb friction (:mod:`knotsim.contact.friction`). A
 converged step is rejected (:meth:`ContactInteraction.check`) when a pair penetrates deeper than
-``penetration_limit`` times the smaller radius of the pair, or when the list went stale: once some
-node has moved more than ``margin / 2`` since the build, an exact broad phase at the solution
+``penetration_limit`` times the smaller radius of the pair, or when the list went stale: once the
+drift exceeds ``margin / 2``, an exact broad phase at the solution
 (cut-off ``d + delta``) must find no pair outside the list.
 
 Contact stiffness ``k_c`` (N/m): ``"constant"`` uses ``stiffness``. ``"adaptive"`` (default) sets,
@@ -41,16 +45,21 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from knotsim.contact.assembly import approach_forces, contact_evaluate, pair_dofs_from_edges
-from knotsim.contact.broadphase import find_candidate_pairs
+from knotsim.contact.assembly import (
+    approach_forces,
+    contact_evaluate,
+    nodal_force_summary,
+    pair_dofs_from_edges,
+)
+from knotsim.contact.broadphase import find_candidate_pairs, node_drift
 from knotsim.errors import ConfigError
 
 #: Weight of the new target in the downward moving average of the adaptive stiffness (per step).
 STIFFNESS_RELAX = 0.02
 #: Factor applied to the adaptive stiffness after a step rejected for penetration.
 PENETRATION_BOOST = 4.0
-#: The pair list is rebuilt when a node has moved more than this fraction of ``margin`` since the
-#: last build.
+#: The pair list is rebuilt when the node drift (see the module docstring) exceeds this fraction of
+#: ``margin`` since the last build.
 REBUILD_FRACTION = 0.5
 
 __all__ = ["ContactInteraction", "ContactSettings", "contact_from_config"]
@@ -185,6 +194,8 @@ class ContactInteraction:
         self._node_xyz = m.node_dof[:, None] + np.arange(3)[None, :]
         #: number of broad-phase rebuilds of the pair list
         self.n_rebuilds = 0
+        #: incremented whenever :meth:`block_dofs` changes (the stepper re-analyses the pattern)
+        self.pattern_version = 0
         self._q_prev = None
         self._dt = 1.0
         self._last = _Eval()
@@ -211,12 +222,13 @@ class ContactInteraction:
 
     # ------------------------------------------------------------------ Interaction protocol
     def _max_displacement(self, q) -> float:
-        """Largest node displacement (m) of ``q`` since the last broad phase."""
+        """Drift (m) of the nodes of ``q`` since the last broad phase: ``max_i |u_i - c|`` with
+        ``u_i`` the node displacements and ``c`` the centre of their bounding box (a common
+        translation does not count; see the module docstring)."""
         m = self.model
         if self._q_build is None or not m.n_nodes:
             return math.inf
-        d = (q - self._q_build)[self._node_xyz]
-        return float(np.sqrt(np.max(np.sum(d * d, axis=1))))
+        return node_drift(q, self._q_build, m.node_dof)
 
     def _broad_phase(self, q, extra: float) -> np.ndarray:
         m = self.model
@@ -253,6 +265,7 @@ class ContactInteraction:
         q = state_in.q
         if self._max_displacement(q) > REBUILD_FRACTION * s.margin:
             self._set_pairs(self._broad_phase(q, s.delta + s.margin))
+            self.pattern_version += 1
             self._q_build = q.copy()
             self.n_rebuilds += 1
         self._q_prev = q
@@ -336,7 +349,7 @@ class ContactInteraction:
                 self._q_build = None  # force a rebuild for the retry
                 a, b = near[np.argmax(missing)]
                 return (f"contact broad phase stale: edges {a} and {b} came within contact range after nodes "
-                        f"moved {dmax:.3g} m since the pair list was built (margin {s.margin:.3g} m)")
+                        f"drifted {dmax:.3g} m since the pair list was built (margin {s.margin:.3g} m)")
         ev = self._evaluated_at(q)
         self._compute_stats(ev)
         if k:
@@ -359,16 +372,7 @@ class ContactInteraction:
             n_contacts = int(np.count_nonzero(gap < self.settings.delta))
             min_gap = float(np.min(gap))
             pen = float(max(0.0, np.max(-gap / self.pair_hmin)))
-            fc = np.zeros(m.n_dofs)
-            ff = np.zeros(m.n_dofs)
-            np.add.at(fc, self.pair_dofs.ravel(), ev.fc.ravel())
-            np.add.at(ff, self.pair_dofs.ravel(), ev.ff.ravel())
-            idx = m.node_dof[:, None] + np.arange(3)[None, :]
-            fcn = np.linalg.norm(fc[idx], axis=1)
-            ffn = np.linalg.norm(ff[idx], axis=1)
-            fmax = float(np.max(fcn))
-            fc_tot = 0.5 * float(np.sum(fcn))
-            ff_tot = 0.5 * float(np.sum(ffn))
+            fmax, fc_tot, ff_tot = nodal_force_summary(self.pair_dofs, ev.fc, ev.ff, m.node_dof, m.n_dofs)
         else:
             n_contacts, min_gap, pen, fc_tot, ff_tot = 0, math.nan, 0.0, 0.0, 0.0
         self._fmax_pending = fmax

@@ -152,46 +152,60 @@ def merge_pattern(n, indptr_e, indices_e, extra_dofs):
 
     Returns ``(indptr, indices, remap)`` where ``remap[p]`` is the new slot of the fixed pattern's
     slot ``p``, so maps computed once on the fixed pattern stay valid via ``remap[old_map]``.
+    Rows stay sorted within each column. Cost: linear in the number of entries (a marker array
+    removes duplicates; each column's few new rows are insertion-sorted and merged with the fixed
+    pattern's sorted rows).
     """
     k, m = extra_dofs.shape
-    cnt = np.empty(n, np.int64)
-    for c in range(n):
-        cnt[c] = indptr_e[c + 1] - indptr_e[c]
+    # rows contributed by the blocks, per column (with duplicates)
+    cnt = np.zeros(n + 1, np.int64)
     for b in range(k):
         for j in range(m):
-            cnt[extra_dofs[b, j]] += m
-    ptr = np.zeros(n + 1, np.int64)
+            cnt[extra_dofs[b, j] + 1] += m
     for c in range(n):
-        ptr[c + 1] = ptr[c] + cnt[c]
-    buf = np.empty(ptr[n], np.int64)
-    fill = ptr[:n].copy()
-    for c in range(n):
-        for p in range(indptr_e[c], indptr_e[c + 1]):
-            buf[fill[c]] = indices_e[p]
-            fill[c] += 1
+        cnt[c + 1] += cnt[c]
+    xrows = np.empty(cnt[n], np.int64)
+    fill = cnt[:n].copy()
     for b in range(k):
         for j in range(m):
             c = extra_dofs[b, j]
             for i in range(m):
-                buf[fill[c]] = extra_dofs[b, i]
+                xrows[fill[c]] = extra_dofs[b, i]
                 fill[c] += 1
+    mark = np.full(n, -1, np.int64)
+    tmp = np.empty(max(1, m * m * k), np.int64)
     indptr = np.zeros(n + 1, np.int64)
-    out = np.empty(ptr[n], np.int64)
+    out = np.empty(indptr_e[n] + cnt[n], np.int64)
+    remap = np.empty(indices_e.shape[0], np.int64)
     nnz = 0
     for c in range(n):
-        seg = np.sort(buf[ptr[c]:ptr[c + 1]])
-        last = -1
-        for r in seg:
-            if r != last:
-                out[nnz] = r
-                nnz += 1
-                last = r
+        lo = indptr_e[c]
+        hi = indptr_e[c + 1]
+        for p in range(lo, hi):
+            mark[indices_e[p]] = c
+        nt = 0
+        for p in range(cnt[c], cnt[c + 1]):
+            r = xrows[p]
+            if mark[r] != c:
+                mark[r] = c
+                # insertion into the sorted list tmp[:nt]
+                i = nt
+                while i > 0 and tmp[i - 1] > r:
+                    tmp[i] = tmp[i - 1]
+                    i -= 1
+                tmp[i] = r
+                nt += 1
+        # merge the fixed rows indices_e[lo:hi] (sorted) with tmp[:nt] (sorted, disjoint)
+        a = lo
+        t = 0
+        while a < hi or t < nt:
+            if t >= nt or (a < hi and indices_e[a] < tmp[t]):
+                remap[a] = nnz
+                out[nnz] = indices_e[a]
+                a += 1
+            else:
+                out[nnz] = tmp[t]
+                t += 1
+            nnz += 1
         indptr[c + 1] = nnz
-    indices = out[:nnz].copy()
-    remap = np.empty(indices_e.shape[0], np.int64)
-    for c in range(n):
-        lo = indptr[c]
-        hi = indptr[c + 1]
-        for p in range(indptr_e[c], indptr_e[c + 1]):
-            remap[p] = _find(indices, lo, hi, indices_e[p])
-    return indptr, indices, remap
+    return indptr, out[:nnz].copy(), remap
