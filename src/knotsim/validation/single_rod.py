@@ -11,8 +11,8 @@ knots jam during the measured pull, and checks, per knot:
   ``F h^2/EI`` at the end lies within a factor :data:`FORCE_FACTOR` of :data:`JAMMED_REFERENCE`,
   the full-size (N = 301, dt = 2.5 ms, 10 mm/s) value at the same end-to-end distance
   (``validation/knots_single_rod.py``, ``pre`` runs). The published means are not checked here:
-  the full-size comparison (our means 0.4-0.5x of the published ones, and reef below granny at
-  mu = 0.1) is in ``validation/reports/knots_single_rod.md``.
+  the full-size comparison (at mu = 0.1 our means are 0.39x (reef) and 0.68x (granny) of the published ones, and the reef is below the granny)
+  is in ``validation/reports/knots_single_rod.md``.
 
 ``quick``: N = 101, dt = 5 ms, pre-tightening 0.5 m at 50 mm/s per end, then 3 s at 20 mm/s
 (end-to-end 0.287 -> 0.907 m; about 10-15 s per knot, 25 s in all). Otherwise: N = 301, dt = 2.5 ms, the
