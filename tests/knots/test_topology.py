@@ -497,3 +497,19 @@ def test_spherogram_agrees():
     hfk = T.identify_with_spherogram(reef)["knot_floer_homology"]
     assert hfk["tau"] == 0 and hfk["seifert_genus"] == 2
     assert T.identify_with_spherogram(T.analyze([circle()], [True]))["identify"] == ["unknot"]
+
+
+def test_torus_closed_forms_reproduce_the_table_and_name_9_1():
+    from knotsim.knots.topology import _PRIME, _torus_2q
+
+    table = {rolf: (alex, jones) for rolf, _, alex, jones in _PRIME}
+    for q, rolf in ((3, "3_1"), (5, "5_1"), (7, "7_1")):
+        alex, jones = _torus_2q(q)
+        assert alex == table[rolf][0]
+        assert jones == table[rolf][1]
+    alex, jones = _torus_2q(9)
+    assert alex == [1, -1, 1, -1, 1, -1, 1, -1, 1]
+    # Jones polynomial of the positive T(2, 9): t^4 (1 + t^2 - t^3 + t^4 - t^5 + t^6 - t^7 + t^8 - t^9)
+    assert jones == {4: 1, 6: 1, 7: -1, 8: 1, 9: -1, 10: 1, 11: -1, 12: 1, 13: -1}
+    names = {e.knot_type for e in T.KNOT_TABLE if e.rolfsen == "9_1"}
+    assert names == {"9_1_right", "9_1_left"}

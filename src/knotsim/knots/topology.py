@@ -58,8 +58,9 @@ Conventions (chirality)
 * **Gauss code**: one list per component of ``+(c+1)`` (passes over crossing ``c``) or ``-(c+1)``
   (passes under), in the order met along the component; the signs are in ``Diagram.signs``.
 
-The knot table (:data:`KNOT_TABLE`) holds the prime knots up to seven crossings (both mirror images)
-and the composites granny (``3_1#3_1``, both chiralities), reef (the square knot ``3_1#3_1*``,
+The knot table (:data:`KNOT_TABLE`) holds the prime knots up to seven crossings (both mirror images),
+the torus knot 9_1 (the closure of the open overhand knot with n = 4, from the closed forms of
+:func:`_torus_2q`) and the composites granny (``3_1#3_1``, both chiralities), reef (the square knot ``3_1#3_1*``,
 amphichiral) and ``3_1#4_1``.  A knot is named when both its Alexander and Jones
 polynomials match an entry; the names are a guess from these two invariants (a few knots with more
 crossings share both polynomials with a table entry), ``"unknown"`` otherwise.  For a certified
@@ -1412,6 +1413,27 @@ _PRIME = [
 ]
 
 
+def _torus_2q(q: int) -> tuple[list[int], dict[int, int]]:
+    """Alexander coefficients and Jones polynomial of the torus knot ``T(2, q)`` (``q`` odd >= 3).
+
+    Closed forms: ``Delta(t) = (t^q + 1)/(t + 1)`` (alternating ones) and Jones' formula
+    ``V(t) = t^((q-1)/2) (1 - t^3 - t^(q+1) + t^(q+2)) / (1 - t^2)`` for the positive knot. They
+    reproduce the table's 3_1, 5_1 and 7_1 (tested) and supply 9_1 (the open overhand with n = 4).
+    """
+    num = {0: 1, 3: -1, q + 1: -1, q + 2: 1}
+    quotient = {}
+    rem = dict(num)
+    # divide by (1 - t^2) from the lowest power up: c_k = r_k + c_{k-2}
+    for k in range(q + 1):
+        c = rem.get(k, 0) + quotient.get(k - 2, 0)
+        if c:
+            quotient[k] = c
+    shift = (q - 1) // 2
+    jones = {k + shift: c for k, c in quotient.items()}
+    alexander = [(-1) ** i for i in range(q)]
+    return alexander, jones
+
+
 @dataclass(frozen=True)
 class KnotEntry:
     """One entry of :data:`KNOT_TABLE`."""
@@ -1450,6 +1472,8 @@ def _build_table() -> list[KnotEntry]:
     for rolf, alias, alex, v in _PRIME:
         add(rolf, alias, alex, v)
         prime[rolf] = (alex, v)
+    a9, v9 = _torus_2q(9)
+    add("9_1", None, a9, v9)
     a3, v3 = prime["3_1"]
     a4, v4 = prime["4_1"]
     add("3_1#3_1", "granny", _alex_mul(a3, a3), _pmul_jones(v3, v3))
@@ -1459,7 +1483,7 @@ def _build_table() -> list[KnotEntry]:
 
 
 KNOT_TABLE: list[KnotEntry] = _build_table()
-"""Knots recognised by :func:`identify_knot` (prime knots up to 7 crossings, granny, reef, 3_1#4_1)."""
+"""Knots recognised by :func:`identify_knot` (prime knots up to 7 crossings, 9_1, granny, reef, 3_1#4_1)."""
 _BY_JONES = {e.jones: e for e in KNOT_TABLE}
 
 
