@@ -84,28 +84,6 @@ def csc_block_map(indptr, indices, dofs):
 
 
 @njit(cache=True)
-def csc_block_map_within(indptr, indices, dofs):
-    """Like :func:`csc_block_map`, and whether every entry exists in the pattern.
-
-    Returns ``(slots (nb, k, k) int64, fits)``; when ``fits`` is False some entry of a block is
-    missing from ``(indptr, indices)`` and ``slots`` must not be used.
-    """
-    nb, k = dofs.shape
-    out = np.empty((nb, k, k), np.int64)
-    for b in range(nb):
-        for j in range(k):
-            col = dofs[b, j]
-            lo = indptr[col]
-            hi = indptr[col + 1]
-            for i in range(k):
-                pos = _find(indices, lo, hi, dofs[b, i])
-                if pos >= hi or indices[pos] != dofs[b, i]:
-                    return out, False
-                out[b, i, j] = pos
-    return out, True
-
-
-@njit(cache=True)
 def csc_diag_map(indptr, indices, n):
     out = np.empty(n, np.int64)
     for c in range(n):

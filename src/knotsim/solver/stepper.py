@@ -233,7 +233,6 @@ class Stepper:
         self._banded = BandedSolver()
         self._sparse = SparseSolver(blocks=np.append(model.node_dof, model.n_dofs))
         self._pattern_key = None
-        self._indptr = self._indices = None
         self._bw_key = None
         #: ``(time, velocity at the start, dt)`` of the last accepted step (acceleration predictor)
         self._history = None
@@ -289,8 +288,6 @@ class Stepper:
             self._needs_factor = True
             self.last_solver = "banded"
             return
-        if key != self._pattern_key and self._pattern_key is not None and self._sticky_fits(inter_dofs):
-            self._pattern_key = key  # new blocks fit the current pattern: no new symbolic analysis
         if key != self._pattern_key:
             if self._elastic_pattern is None:
                 indptr_e, indices_e = asm.csc_pattern(n, self._elastic_groups)
@@ -332,25 +329,6 @@ class Stepper:
         self._system = ("sparse", data)
         self._needs_factor = True
         self.last_solver = "sparse"
-
-    def _sticky_fits(self, inter_dofs) -> bool:
-        """True (and the block slots updated) if every interaction block fits the current sparse
-        pattern. The pattern then keeps the blocks of pairs that left the candidate list (as
-        explicit zeros) until a block arrives that does not fit: measured on
-        ``benchmarks/bench_contact.py``, this skips 28 of 72 symbolic analyses."""
-        if self._indptr is None:
-            return False
-        slots = []
-        for d in inter_dofs:
-            if not d.size:
-                slots.append(None)
-                continue
-            sl, fits = asm.csc_block_map_within(self._indptr, self._indices, d)
-            if not fits:
-                return False
-            slots.append(sl)
-        self._inter_slots = slots
-        return True
 
     def _solve(self, rhs: np.ndarray) -> np.ndarray:
         """Solve with the last assembled Jacobian, factorising it first if it is new."""
