@@ -28,17 +28,19 @@ def test_pre_pull_default_is_off():
 def test_pre_pull_moves_the_ends_then_measures_the_window(tmp_path):
     out = tmp_path / "pre"
     s = run_protocol("single-rod-bend", "single_rod_reef", out_dir=out, quick=True,
-                     overrides={"pre_pull": 0.1, "pre_pull_speed": 0.05, "mean_window": 0.5, "duration": None})
+                     overrides={"pre_pull": 0.1, "pre_pull_speed": 0.025, "mean_window": 0.5, "duration": None})
+    # (at 50 mm/s per end this N = 101 knot sits on the edge of untying: whether it holds then
+    # depends on round-off in the linear solver, so the test pre-pulls at 25 mm/s)
     assert s["run_status"] == "completed"
     m = s["metrics"]
-    assert m["pre_pull_time"] == pytest.approx(1.0)
-    assert s["parameters"]["duration"] == pytest.approx(1.5)  # t_pre + mean_window
+    assert m["pre_pull_time"] == pytest.approx(2.0)
+    assert s["parameters"]["duration"] == pytest.approx(2.5)  # t_pre + mean_window
     log = pd.read_parquet(out / "log.parquet")
     t, tp, e2e = (log[c].to_numpy() for c in ("time", "t_pull", "end_to_end"))
-    np.testing.assert_allclose(tp, t - 1.0)
-    e0 = e2e[0] - 2 * 0.05 * t[0]
-    # the ends separate at 2 x 50 mm/s for 1 s, then at 2 x 20 mm/s (the quick pull speed)
-    expect = e0 + np.where(t <= 1.0, 0.1 * t, 0.1 + 0.04 * (t - 1.0))
+    np.testing.assert_allclose(tp, t - 2.0)
+    e0 = e2e[0] - 2 * 0.025 * t[0]
+    # the ends separate at 2 x 25 mm/s for 2 s, then at 2 x 20 mm/s (the quick pull speed)
+    expect = e0 + np.where(t <= 2.0, 0.05 * t, 0.1 + 0.04 * (t - 2.0))
     np.testing.assert_allclose(e2e, expect, atol=1e-9)
     assert m["end_to_end_at_window_start"] == pytest.approx(e0 + 0.1, abs=1e-3)
     assert math.isfinite(m["F_norm_mean"]) and m["mean_window"] == 0.5

@@ -148,16 +148,23 @@ def approach_forces(q, v, dt, pair_dofs, pair_d, tol, node_mass):
     ``dt`` (s). ``node_mass`` is indexed like ``q`` (kg per position unknown).
     """
     p = np.empty(12)
-    grad = np.empty(12)
-    hess = np.empty((12, 12))
     fmax = 0.0
     for k in range(pair_dofs.shape[0]):
         for m in range(12):
             p[m] = q[pair_dofs[k, m]]
-        delta, _, _, _ = edge_edge_distance_derivatives(p, grad, hess)
+        delta, bi, bj, _ = edge_edge_distance(p)
+        if not delta > 0.0:
+            continue
+        # dΔ/dt = n . (v_i(β_i) - v_j(β_j)), n the unit vector between the closest points (the
+        # β derivatives drop out: the closest points minimise the distance)
         rate = 0.0
-        for m in range(12):
-            rate += grad[m] * v[pair_dofs[k, m]]
+        for c in range(3):
+            xi = (1.0 - bi) * p[c] + bi * p[3 + c]
+            xj = (1.0 - bj) * p[6 + c] + bj * p[9 + c]
+            vi = (1.0 - bi) * v[pair_dofs[k, c]] + bi * v[pair_dofs[k, 3 + c]]
+            vj = (1.0 - bj) * v[pair_dofs[k, 6 + c]] + bj * v[pair_dofs[k, 9 + c]]
+            rate += (xi - xj) * (vi - vj)
+        rate /= delta
         if rate >= 0.0:
             continue
         if delta + rate * dt >= pair_d[k] + tol:
@@ -168,7 +175,6 @@ def approach_forces(q, v, dt, pair_dofs, pair_d, tol, node_mass):
         if f > fmax:
             fmax = f
     return fmax
-
 
 
 @njit(cache=True)
