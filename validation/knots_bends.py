@@ -185,9 +185,11 @@ def bend_metrics(s: dict) -> dict:
 
 
 def compare(a: dict, b: dict) -> str:
-    """``">"``, ``"<"``, ``"="`` or ``"?"`` (undetermined: both held, or the held one carried less
-    than the other's peak) for the holding forces of two bends."""
+    """``">"``, ``"<"``, ``"="``, ``"?"`` (undetermined: both held, or the held one carried less
+    than the other's peak) or ``"n/a"`` (a run stopped early) for the holding forces of two bends."""
     fa, fb = a["F_hold"], b["F_hold"]
+    if a["run_status"] != "completed" or b["run_status"] != "completed":
+        return "n/a"
     if a["held"] and b["held"]:
         return "?"
     if abs(fa - fb) <= TIE * max(fa, fb):
@@ -199,14 +201,15 @@ def compare(a: dict, b: dict) -> str:
 
 def ranking(ms: dict[str, dict]) -> str:
     order = sorted(ms, key=lambda k: -ms[k]["F_hold"])
-    return " > ".join(f"{SHORT[k]} ({'≥' if ms[k]['held'] else ''}{ms[k]['F_hold']:.2e})" for k in order)
+    return " > ".join(f"{SHORT[k]} ({'≥' if ms[k]['held'] else ''}{ms[k]['F_hold']:.2e}"
+                      f"{', run stopped early' if ms[k]['run_status'] != 'completed' else ''})" for k in order)
 
 
 def patil_check(ms: dict[str, dict]) -> list[tuple[str, str, str]]:
     rows = []
     for strong, weak in PATIL:
         c = compare(ms[strong], ms[weak])
-        verdict = {">": "agrees", "<": "DISAGREES", "=": "tie", "?": "undetermined"}[c]
+        verdict = {">": "agrees", "<": "DISAGREES", "=": "tie", "?": "undetermined", "n/a": "run failed"}[c]
         rows.append((f"{SHORT[strong]} > {SHORT[weak]}", c, verdict))
     c = compare(ms["granny_bend"], ms["thief_bend"])
     rows.append(("granny vs thief (undecided)", c, "-"))
