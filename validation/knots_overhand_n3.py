@@ -15,7 +15,8 @@ stated):
   metres (same proportions);
 - the loop drawn taller (x 1.5) or flatter (x 0.6) about its base, with the tails adjusted back to
   0.30 m: a different loop / braid proportion;
-- the shipped drawing at N = 401 (resolution).
+- the shipped drawing at N = 401 (resolution), and pulled on to e = 200 mm (the protocol stops at
+  e_final = 250 mm, just after the n = 3 loop inversion).
 
 The variant drawings are written as TOML files into the run directory and pulled like any user
 drawing. Writes ``validation/reports/knots_overhand_n3.md``, ``knots_overhand_n3.png`` (F h^2/EI
@@ -50,14 +51,16 @@ from knotsim.validation.knots import OVERHAND_REFERENCE, OVERHAND_TOLERANCE  # n
 OUT = Path(__file__).parent / "reports"
 REF = OVERHAND_REFERENCE[3]
 
-#: name -> (description, target start end-to-end (m) or None = shipped tails, loop height factor, N)
-VARIANTS: dict[str, tuple[str, float | None, float, int]] = {
-    "ref": ("shipped drawing overhand_n3", None, 1.0, 301),
-    "e280": ("shipped proportions, knot scaled up (shorter tails)", 0.28, 1.0, 301),
-    "e330": ("shipped proportions, knot scaled down (longer tails)", 0.33, 1.0, 301),
-    "tall": ("loop 1.5x taller (bigger loop, shorter braid)", 0.30, 1.5, 301),
-    "flat": ("loop 0.6x as tall (smaller loop, longer braid)", 0.30, 0.6, 301),
-    "ref_N401": ("shipped drawing overhand_n3, N = 401", None, 1.0, 401),
+#: name -> (description, target start end-to-end (m) or None = shipped tails, loop height factor, N,
+#: end of the pull e_final (m; the protocol default is 0.25))
+VARIANTS: dict[str, tuple[str, float | None, float, int, float]] = {
+    "ref": ("shipped drawing overhand_n3", None, 1.0, 301, 0.25),
+    "e280": ("shipped proportions, knot scaled up (shorter tails)", 0.28, 1.0, 301, 0.25),
+    "e330": ("shipped proportions, knot scaled down (longer tails)", 0.33, 1.0, 301, 0.25),
+    "tall": ("loop 1.5x taller (bigger loop, shorter braid)", 0.30, 1.5, 301, 0.25),
+    "flat": ("loop 0.6x as tall (smaller loop, longer braid)", 0.30, 0.6, 301, 0.25),
+    "ref_N401": ("shipped drawing overhand_n3, N = 401", None, 1.0, 401, 0.25),
+    "ref_e200": ("shipped drawing overhand_n3, pulled on to e = 200 mm", None, 1.0, 301, 0.20),
 }
 
 # index ranges in the shipped overhand_n3 waypoints: 5 left-tail points (the last is the braid
@@ -101,7 +104,7 @@ def _toml(d: dict) -> str:
 def variant_drawing(name: str) -> dict:
     """The knot drawing (spec mapping) of a variant; the tail extension is found by bisection so
     that the built N = 301 geometry has the target start end-to-end distance (to 0.5 mm)."""
-    _, target, fy, _ = VARIANTS[name]
+    _, target, fy, _, _ = VARIANTS[name]
     if target is None:
         return _spec_dict(name, _waypoints(0.0, fy))
 
@@ -138,7 +141,7 @@ def run_variant(runs: Path, name: str, dt: float) -> dict:
     drawing.write_text(_toml(variant_drawing(name)), encoding="utf-8")
     t0 = time.perf_counter()
     s = run_protocol("overhand-pull", knot=str(drawing), out_dir=d,
-                     overrides={"dt": dt, "mu": 0.1, "n_nodes": VARIANTS[name][3]})
+                     overrides={"dt": dt, "mu": 0.1, "n_nodes": VARIANTS[name][3], "e_final": VARIANTS[name][4]})
     print(f"{name}: {s['outcome']}, {s['run_status'][:160]}, wall {time.perf_counter() - t0:.0f} s, "
           f"F h2/EI(e=0.3) = {s['metrics'].get('F_norm_at_e_300mm')}", flush=True)
     return s
@@ -177,7 +180,7 @@ def report(runs: Path, names: list[str], dt: float) -> None:
     rows = []
     for k, name in enumerate(names):
         d = runs / name
-        desc, _, _, nn = VARIANTS[name]
+        desc, _, _, nn, _ = VARIANTS[name]
         if not (d / "summary.json").exists():
             lines.append(f"| {name}: {desc} | {nn} | no run | | | | | | | | |")
             continue
@@ -203,7 +206,7 @@ def report(runs: Path, names: list[str], dt: float) -> None:
         step = float(s["parameters"]["dt"])
         sm = log["F_norm"].rolling(max(1, int(round(0.25 / step))), center=True, min_periods=1).mean()
         keep = log["e"] < 0.65
-        ax.plot(log["e"][keep] * 1e3, sm[keep], color=f"C{k}", ls="--" if "N401" in name else "-",
+        ax.plot(log["e"][keep] * 1e3, sm[keep], color=f"C{k}", ls="--" if name.startswith("ref_") else "-",
                 label=f"{name} (start {st['end_to_end'] * 1e3:.0f} mm)")
         if drop_e is not None:
             ax.plot([drop_e * 1e3], [drop["force"]], "v", color=f"C{k}", ms=8)
