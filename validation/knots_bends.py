@@ -381,8 +381,9 @@ def main() -> None:
          "* Pairwise comparison: A > B when A's F_hold exceeds B's by more than "
          f"{TIE:.0%} and B slipped (if B held, B's F_hold is only a lower bound: undetermined); "
          "two held bends are undetermined.", "",
-         "Force control (`mode=\"force\"`, a ramp) would be the most direct measure but does not work from "
-         "these loose drawings: see *Force control* below.", "",
+         "Force control (`mode=\"force\"`, a force ramp on the pulled end; F_hold = the applied force when the "
+         "pulled end runs away) is run as one of the checks below with a slow ramp (0.2 mN/s); see the findings "
+         "for the protocol's default ramp.", "",
          "## Full-size result (N = 301)", "",
          f"Ranking by F_hold: **{ranking(base)}**", "",
          "| bend | F_hold (F h²/EI) | at u (mm) | slip onset t (s) / u (mm) | F at slip onset | mean F while "
