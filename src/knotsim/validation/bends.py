@@ -8,13 +8,17 @@ while carrying a larger pull force than the one at which the grief bend *slips* 
 drawn into the knot about as fast as the end is pulled). Rows:
 
 * tail draw-in rate of the reef bend / pull speed, after the start-up transient (held: ``<= 0.25``);
-* tail draw-in rate of the grief bend / pull speed (slipping: ``>= 0.5``);
+* tail draw-in rate of the grief bend / pull speed (slipping: ``>= 0.4``);
 * ``F_reef / F_grief``, the mean pull force ``F h^2/EI`` of each over the second half of the pull
   (``> 2``: the reef holds under a force that makes the grief bend slip);
 * worst penetration of each run, fraction of h (``<= 0.2``);
 * the knot type of each bend unchanged (``held`` or ``slipped``, not untied).
 
-``quick``: N = 101, dt = 5 ms, 20 mm/s for 4 s (about 10 s per bend); otherwise N = 151,
+Measured at ``quick`` size: reef rate -0.25 (its tails are pushed out), grief rate 0.75 (1.0 with
+an earlier solver revision: round-off-level solver changes move it, hence the margin to 0.4),
+force ratio 4.2, about 10 s in all once numba has compiled.
+
+``quick``: N = 101, dt = 5 ms, 20 mm/s for 4 s (about 5 s per bend); otherwise N = 151,
 dt = 2 ms, 10 mm/s for 10 s. The full-size study (N = 301, 400 mm of pull, the four bends, checks
 of N, mu, stiffness and pull speed) is ``validation/knots_bends.py``.
 """
@@ -28,7 +32,7 @@ import numpy as np
 #: Tail draw-in rate (both tails together, fraction of the pull speed) below which a bend holds.
 HOLD_RATE = 0.25
 #: Tail draw-in rate above which a bend slips.
-SLIP_RATE = 0.5
+SLIP_RATE = 0.4
 #: Smallest ratio of the reef's pull force to the grief's sliding force.
 FORCE_RATIO = 2.0
 #: Largest accepted penetration, fraction of h.
