@@ -46,6 +46,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from knotsim.protocols import run_protocol  # noqa: E402
+from knotsim.protocols.metrics import draw_in_onset, sustained_onset  # noqa: E402
 
 OUT = Path(__file__).parent / "reports"
 BENDS = ("reef_bend", "granny_bend", "thief_bend", "grief_bend")
@@ -134,24 +135,10 @@ def bend_metrics(s: dict) -> dict:
     force_mode = p["mode"] == "force"
     if force_mode:  # runaway of the pulled end under the applied force ramp
         speed = np.gradient(_smooth(t, u, SMOOTH), t) if len(t) > 2 else np.zeros_like(t)
-        fast = (speed > float(p["runaway_speed"])) & (t >= T_SKIP_FORCE)
-    else:  # tails drawn into the knot
-        rate = -np.gradient(_smooth(t, tails, SLIP_HOLD), t) if len(t) > 2 else np.zeros_like(t)
-        fast = (rate > SLIP_RATE * v) & (t >= T_SKIP)
-    hold = 0.5 if force_mode else SLIP_HOLD  # s the fast motion must last
-    slip = None
-    i = 0
-    while i < len(t):
-        if fast[i]:
-            j = i
-            while j + 1 < len(t) and fast[j + 1]:
-                j += 1
-            if t[j] - t[i] >= hold or j == len(t) - 1 and t[j] - t[i] >= 0.5 * hold:
-                slip = i
-                break
-            i = j + 1
-        else:
-            i += 1
+        slip = sustained_onset(t, (speed > float(p["runaway_speed"])) & (t >= T_SKIP_FORCE), 0.5)
+    else:  # tails drawn into the knot (the protocol's own rule, here with this script's constants)
+        onset = draw_in_onset(log, ["tail_a", "tail_b"], SLIP_RATE * v, smooth=SLIP_HOLD, hold=SLIP_HOLD, t0=T_SKIP)
+        slip = None if onset is None else int(np.searchsorted(t, onset["time"]))
     if force_mode:  # the force at which the pulled end runs away (the applied ramp; end of run if never)
         f = log["F_norm"].to_numpy()
         k = slip if slip is not None else len(t) - 1

@@ -76,3 +76,89 @@ def test_tail_draw_in_and_status():
     assert M.knot_status("reef", "granny_left") == "changed knot type"
     assert M.knot_status(None, "reef") == "unknown"
     assert M.normalized_force(2.0, 0.1, 0.01) == pytest.approx(2.0)
+
+
+def _naive_sustained(t, flag, hold):
+    """Slow reference: try every start row, walk forward while the flag holds."""
+    for i in range(len(t)):
+        if not flag[i] or (i > 0 and flag[i - 1]):
+            continue
+        j = i
+        while j + 1 < len(t) and flag[j + 1]:
+            j += 1
+        if t[j] - t[i] >= hold or (j == len(t) - 1 and t[j] - t[i] >= hold / 2):
+            return i
+    return None
+
+
+def test_sustained_onset_against_reference():
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 10.0, 201)
+    for _ in range(200):
+        flag = rng.random(t.size) < rng.uniform(0.3, 0.97)
+        hold = rng.uniform(0.0, 2.0)
+        assert M.sustained_onset(t, flag, hold) == _naive_sustained(t, flag, hold)
+    flag = np.zeros(t.size, bool)
+    assert M.sustained_onset(t, flag, 1.0) is None
+    flag[t >= 9.4] = True  # 0.6 s at the end of the record: counts for hold = 1 s, not for 2 s
+    assert t[M.sustained_onset(t, flag, 1.0)] == pytest.approx(9.4)
+    assert M.sustained_onset(t, flag, 2.0) is None
+    with pytest.raises(ConfigError, match="flag"):
+        M.sustained_onset(t, flag[:-1], 1.0)
+    with pytest.raises(ConfigError, match="hold"):
+        M.sustained_onset(t, flag, -1.0)
+
+
+def test_draw_in_onset_finds_tails_running_in_under_a_steady_force():
+    """A bend that slips under an almost constant force (no 30 % drop) is caught by the tails."""
+    v = 0.01
+    t = np.linspace(0.0, 40.0, 401)
+    tails = np.where(t < 30.0, 0.6, 0.6 - 0.9 * v * (t - 30.0))  # tails run in at 0.9 v from 30 s
+    f = np.where(t < 30.0, 0.011 * t / 30.0, 0.0095)  # peak, then only -14 %
+    log = _log(t, f, tail_a=tails / 2, tail_b=tails / 2)
+    on = M.draw_in_onset(log, ["tail_a", "tail_b"], 0.25 * v, smooth=2.0, hold=2.0, t0=2.0)
+    assert on is not None and on["criterion"] == "tail draw-in"
+    assert 29.0 <= on["time"] <= 30.5
+    assert on["force"] == pytest.approx(0.011, rel=0.1)
+    assert on["detected_at"] >= on["time"] + 2.0 - 1e-9
+    # the force-drop rule misses it
+    assert M.slip_onset(log, "F_norm", drop_fraction=0.3, min_force=0.005, smooth=0.5, t0=2.0) is None
+    # a held bend: tails pushed out, or drawn in slower than the threshold
+    held = _log(t, f, tail_a=0.3 + 0.1 * v * t, tail_b=0.3 - 0.2 * v * t)
+    assert M.draw_in_onset(held, ["tail_a", "tail_b"], 0.25 * v, t0=2.0) is None
+    # a loose bend sliding from the very start: onset at the end of the transient
+    sliding = _log(t, f, tail_a=0.3 - 0.5 * v * t, tail_b=0.3 - 0.5 * v * t)
+    assert M.draw_in_onset(sliding, ["tail_a", "tail_b"], 0.25 * v, t0=2.0)["time"] == pytest.approx(2.0)
+    with pytest.raises(ConfigError, match="rate"):
+        M.draw_in_onset(log, ["tail_a"], 0.0)
+    with pytest.raises(ConfigError, match="tail_c"):
+        M.draw_in_onset(log, ["tail_c"], 1e-3)
+
+
+def test_two_rope_bend_outcome_uses_tail_draw_in():
+    """The protocol's metrics on a synthetic log: a slow slip under a steady force is 'slipped'."""
+    from types import SimpleNamespace
+
+    from knotsim.protocols.base import resolve_params
+    from knotsim.protocols.two_rope_bend import TwoRopeBend
+
+    proto = TwoRopeBend()
+    v = 0.01
+    t = np.linspace(0.0, 40.0, 401)
+    tails = np.where(t < 30.0, 0.6, 0.6 - 0.9 * v * (t - 30.0))
+    f = np.where(t < 30.0, 0.011 * t / 30.0, 0.0095)
+    log = _log(t, f, tail_a=tails / 2, tail_b=tails / 2, u_pull=v * t)
+    ctx = SimpleNamespace(params=resolve_params(proto.defaults, {"pull_speed": v}))
+    m = proto.metrics(ctx, log)
+    assert proto.slipped(ctx, m) and 29.0 <= m["slip_onset"]["time"] <= 30.5
+    assert m["force_drop_onset"] is None
+    assert m["F_norm_hold"] == pytest.approx(0.011, rel=0.02)
+    held = log.assign(tail_a=0.3, tail_b=0.3)
+    assert not proto.slipped(ctx, proto.metrics(ctx, held))
+    # force control: the pulled end runs away at 20 s
+    u = np.where(t < 20.0, 1e-3 * t, 0.02 + 0.2 * (t - 20.0))
+    flog = _log(t, 1e-3 * t, tail_a=0.3, tail_b=0.3, u_pull=u)
+    fctx = SimpleNamespace(params=resolve_params(proto.defaults, {"mode": "force"}))
+    fm = proto.metrics(fctx, flog)
+    assert fm["slip_onset"]["criterion"] == "runaway" and 19.5 <= fm["slip_onset"]["time"] <= 20.5
+    assert fm["F_norm_hold"] == pytest.approx(0.02, rel=0.05)

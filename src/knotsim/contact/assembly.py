@@ -14,7 +14,6 @@ from numba import njit
 from knotsim.contact.distance import (
     edge_edge_beta_gradients,
     edge_edge_distance,
-    edge_edge_distance_derivatives,
 )
 from knotsim.contact.friction import friction_pair
 from knotsim.contact.potential import contact_pair_energy

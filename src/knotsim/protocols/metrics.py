@@ -17,6 +17,16 @@ Definitions
   running maximum stops growing (by more than ``drop_fraction`` relative) for at least
   ``plateau_time`` s, i.e. "the pull force stops increasing". ``None`` when neither happens
   (the knot held without slipping during the record).
+* **draw-in slip onset** (:func:`draw_in_onset`): a bend (or any knot with free tails) slips when
+  its tails run into the knot. Onset = the first time (after ``t0``) from which the summed length
+  of the given tail columns decreases faster than ``rate`` (m/s; e.g. a fraction of the pull
+  speed), measured on a centred moving average of width ``smooth`` s, without interruption for at
+  least ``hold`` s (or, at the end of the record, for at least ``hold / 2`` s). This catches the
+  slips that the force-drop rule misses: a bend whose tails run in under an almost constant force,
+  and a loose bend that slides from the start (no peak to drop from).
+* **sustained onset** (:func:`sustained_onset`): the first time a boolean condition holds for
+  ``hold`` s without interruption (the same rule, on any condition, e.g. a pulled end running away
+  under force control).
 * **tail draw-in**: decrease of a length column (e.g. the arc length of a free tail outside the
   knot, m) from the first to the last row (positive when the tail was drawn into the knot), or
   the increase of a displacement column (``kind="increase"``).
@@ -36,9 +46,11 @@ from knotsim.errors import ConfigError
 __all__ = [
     "force_at",
     "moving_average",
+    "draw_in_onset",
     "knot_status",
     "normalized_force",
     "slip_onset",
+    "sustained_onset",
     "tail_draw_in",
     "window_mean",
     "window_peak",
@@ -182,6 +194,81 @@ def slip_onset(log: pd.DataFrame, column: str = "F_norm", *, mode: str = "drop",
             i = int(arg_max[k])
             return {"time": float(t[i]), "force": float(run_max[k]), "detected_at": float(t[k])}
     return None
+
+
+def sustained_onset(t: np.ndarray, flag: np.ndarray, hold: float) -> int | None:
+    """Index of the first row from which ``flag`` stays true for at least ``hold`` s (``t`` in s,
+    rows in time order); a run of true rows that reaches the end of the record counts once it
+    lasts ``hold / 2`` s. ``None`` when there is none."""
+    t = np.asarray(t, float)
+    flag = np.asarray(flag, bool)
+    if t.shape != flag.shape:
+        raise ConfigError("flag", f"needs one value per time, got {flag.shape} for {t.shape}")
+    if not hold >= 0:
+        raise ConfigError("hold", f"must be a duration >= 0 in s, got {hold!r}")
+    n = t.size
+    i = 0
+    while i < n:
+        if not flag[i]:
+            i += 1
+            continue
+        j = i
+        while j + 1 < n and flag[j + 1]:
+            j += 1
+        lasted = t[j] - t[i]
+        if lasted >= hold or (j == n - 1 and lasted >= 0.5 * hold):
+            return i
+        i = j + 1
+    return None
+
+
+def draw_in_onset(log: pd.DataFrame, columns, rate: float, *, smooth: float = 2.0, hold: float = 2.0,
+                  t0: float | None = None, force_column: str | None = "F_norm") -> dict | None:
+    """Slip onset from tails being drawn into the knot (definition in the module docstring).
+
+    Parameters
+    ----------
+    log:
+        Per-step log with ``time`` (s) and the tail-length ``columns`` (m).
+    columns:
+        Names of the tail-length columns; their sum is tested.
+    rate:
+        m/s; the tails must be drawn in faster than this.
+    smooth:
+        Width (s) of the centred moving average of the summed tail length before differentiating.
+    hold:
+        s the fast draw-in must last.
+    t0:
+        Ignore rows before this time (s): the start-up transient.
+    force_column:
+        Column whose value (moving average of width 0.5 s) is reported as ``force``; ``None``: none.
+
+    Returns
+    -------
+    ``{"time": s, "force": F at onset, "detected_at": s, "criterion": "tail draw-in"}`` or ``None``.
+    """
+    if not rate > 0:
+        raise ConfigError("rate", f"must be a draw-in speed > 0 in m/s, got {rate!r}")
+    cols = [columns] if isinstance(columns, str) else list(columns)
+    t = _column(log, "time")
+    if t.size < 3:
+        return None
+    tails = np.zeros_like(t)
+    for c in cols:
+        tails = tails + _column(log, c)
+    smoothed = moving_average(pd.DataFrame({"time": t, "y": tails}), "y", smooth) if smooth > 0 else tails
+    speed = -np.gradient(smoothed, t)
+    fast = speed > rate
+    if t0 is not None:
+        fast &= t >= float(t0)
+    k = sustained_onset(t, fast, hold)
+    if k is None:
+        return None
+    force = math.nan
+    if force_column is not None and force_column in log.columns:
+        force = float(moving_average(log, force_column, 0.5)[k])
+    j = min(t.size - 1, int(np.searchsorted(t, t[k] + hold)))
+    return {"time": float(t[k]), "force": force, "detected_at": float(t[j]), "criterion": "tail draw-in"}
 
 
 def tail_draw_in(log: pd.DataFrame, column: str, kind: str = "decrease") -> float:
