@@ -24,6 +24,10 @@ class NonlinearSystem(Protocol):
     def step_norm(self, dq: np.ndarray) -> float:
         """Step norm in units of ``step_tol`` (1 = tolerance)."""
 
+    def residual_norm2(self, r: np.ndarray) -> float:
+        """Optional: Euclidean norm of the residual in tolerance units (used by the safeguarded line
+        search; systems without it are measured by ``np.linalg.norm(r)``)."""
+
 
 def _acceptable(a: float, rn_try: float, rn: float, merit: float, merit0: float, slope: float) -> bool:
     """Line-search test: the residual norm fell, or the potential fell (Armijo with ``slope``)."""
@@ -53,7 +57,7 @@ class NewtonResult:
 
 def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 25,
                  line_search: bool = True, max_cuts: int = 8, reuse_jacobian: bool = False,
-                 reuse_ratio: float = 0.25) -> NewtonResult:
+                 reuse_ratio: float = 0.25, stall_iterations: int = 5, safeguard_cuts: int = 30) -> NewtonResult:
     """Solve ``residual(q) = 0`` from ``q0`` (prescribed unknowns already set in ``q0``).
 
     Each iteration solves ``J dq = -r`` and accepts ``q + a dq`` with the largest
@@ -67,12 +71,25 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
     Accepting a decrease of the potential lets Newton take the full
     steps that stiff stretching makes look bad in residual norm (a bending step raises the stretching
     residual before the next iteration removes it).
+
+    Safeguard against cycling: friction is not the gradient of a potential, so a step that lowers
+    the potential may raise the friction residual, and near a stick-slip transition (the smooth
+    Coulomb switch is steep: ``K2 / dt`` in position) the iterates can cycle between two or four
+    points for ever, at any time step. When the best residual norm has not halved for
+    ``stall_iterations`` iterations, the rest of the solve uses a fresh Jacobian every iteration
+    and a line search on the Euclidean residual norm alone (``system.residual_norm2``), for which
+    the Newton direction is always a descent direction, with up to ``safeguard_cuts`` halvings.
+    ``NewtonResult.line_search_cuts`` counts the cuts of both line searches.
     """
+    norm2 = getattr(system, "residual_norm2", None) or (lambda r: float(np.linalg.norm(r)))
     q = q0.copy()
     r = system.residual(q, True)
     rn = system.residual_norm(r)
     step = np.inf
     cuts_total = 0
+    best = rn
+    since_best = 0
+    safeguarded = False
     for it in range(max_iterations + 1):
         if not np.isfinite(rn):
             return NewtonResult(q, False, it, rn, step, cuts_total, "residual is not finite")
@@ -82,10 +99,35 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
             return NewtonResult(q, True, it, rn, step if it else 0.0, cuts_total)
         if it == max_iterations:
             break
+        if rn <= 0.5 * best:
+            best, since_best = rn, 0
+        else:
+            since_best += 1
+            if since_best >= stall_iterations and line_search and not safeguarded:
+                safeguarded = True
+                if reuse_jacobian:
+                    r = system.residual(q, True)  # the Jacobian at the current point
+                    rn = system.residual_norm(r)
         dq = system.solve(-r)
         if not np.all(np.isfinite(dq)):
             return NewtonResult(q, False, it, rn, step, cuts_total, "linear solve gave a non-finite step")
         a = 1.0
+        if safeguarded:
+            n0 = norm2(r)
+            q_try = q + dq
+            r_try = system.residual(q_try, True)
+            cuts = 0
+            while norm2(r_try) > (1.0 - 1e-4 * a) * n0 and cuts < safeguard_cuts:
+                a *= 0.5
+                cuts += 1
+                q_try = q + a * dq
+                r_try = system.residual(q_try, False)
+            if cuts:
+                r_try = system.residual(q_try, True)
+            cuts_total += cuts
+            step = system.step_norm(a * dq)
+            q, r, rn = q_try, r_try, system.residual_norm(r_try)
+            continue
         merit0 = system.merit
         slope = float(np.dot(r, dq))
         q_try = q + dq

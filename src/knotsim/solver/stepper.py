@@ -193,6 +193,13 @@ class _StepSystem:
         rp, rt = split_max_abs(r, self.s.model.theta_mask)
         return max(rp / self.s.force_tol, rt / self.s.moment_tol) / self.roundoff_factor
 
+    def residual_norm2(self, r: np.ndarray) -> float:
+        """Euclidean norm of ``r`` with forces in ``force_tol`` and moments in ``moment_tol`` units."""
+        theta = self.s.model.theta_mask
+        fp = float(np.dot(r[~theta], r[~theta])) / self.s.force_tol**2
+        ft = float(np.dot(r[theta], r[theta])) / self.s.moment_tol**2
+        return math.sqrt(fp + ft) / self.roundoff_factor
+
     def step_norm(self, dq: np.ndarray) -> float:
         sp_, st = split_max_abs(dq, self.s.model.theta_mask)
         return max(sp_ / self.s.step_tol, st / self.s.settings.angle_tol)
