@@ -147,3 +147,21 @@ def test_bend_snap_at_mu_05_does_not_stall(knot):
     assert s["run_status"] == "completed", s["run_status"]
     assert s["sim_time"] == pytest.approx(0.3)
     assert s["contact"]["worst_penetration_ratio"] <= 0.2
+
+
+def test_single_rod_hold_nodes(tmp_path):
+    """``hold_nodes = 3`` holds the hint node and its two neighbours still; the next nodes move."""
+    from knotsim.io.trajectory import read_trajectory
+    from knotsim.knots.library import get_knot
+
+    s = run_protocol("single-rod-bend", "single_rod_reef", out_dir=tmp_path, quick=True,
+                     overrides={"hold_nodes": 3, "duration": 0.5, "output_interval": 0.25})
+    assert s["parameters"]["hold_nodes"] == 3
+    hint = get_knot("single_rod_reef", n_nodes=s["parameters"]["n_nodes"]).held[0].node
+    tr = read_trajectory(tmp_path / "trajectory.h5")
+    x0, x1 = np.asarray(tr.centerlines(0)[0]), np.asarray(tr.centerlines(tr.n_frames - 1)[0])
+    moved = np.linalg.norm(x1 - x0, axis=1)
+    assert np.all(moved[hint - 1:hint + 2] < 1e-12)
+    assert moved[hint - 3] > 1e-6 and moved[hint + 3] > 1e-6
+    with pytest.raises(ConfigError, match="hold_nodes"):
+        run_protocol("single-rod-bend", "single_rod_reef", quick=True, overrides={"hold_nodes": 2})

@@ -7,7 +7,9 @@ are clamped and moved apart along the initial end-to-end axis (horizontal in the
 ``pull_speed`` per end (10 mm/s: the printed 10 cm/s cannot be right for 17 s of pulling a 1 m
 rod). The node given by the knot's ``held`` hint (the bottom of the first overhand) is held static
 (:meth:`~knotsim.bc.BoundaryConditions.hold`, positions only) for ``hold_time`` s (default
-``None``: the whole run; 0: no hold), which stops the first overhand from inverting.
+``None``: the whole run; 0: no hold), which stops the first overhand from inverting. The report
+does not say how much of the loop its hold grips: ``hold_nodes`` (odd, default 1) holds that many
+consecutive nodes centred on the hint (e.g. 5 nodes = 4 edges, about 13 mm of rod at N = 301).
 
 Pre-tightening (``pre_pull``, default 0 = off): how loose the knot is at the start of the measured
 pull is not given by the report, and the library drawings are loose (end-to-end distance about
@@ -80,6 +82,7 @@ class SingleRodBend(Protocol):
         "pull_speed": 0.01,     # m/s per end
         "mean_window": 13.0,    # s
         "hold_time": None,      # s, how long the held node stays held (None: the whole run)
+        "hold_nodes": 1,        # consecutive nodes held, centred on the knot's hold hint (odd)
         "pre_pull": 0.0,        # m, end-to-end separation added before the measured pull (0: none)
         "pre_pull_speed": None,  # m/s per end during the pre-tightening (None: pull_speed)
         "output_interval": 0.1,
@@ -107,7 +110,12 @@ class SingleRodBend(Protocol):
         else:
             ctx.bcs.move("pull_start", rod=0, nodes=[0, 1], path=list(-v * axis))
             ctx.bcs.move("pull_end", rod=0, nodes=[-2, -1], path=list(v * axis))
-        held = [h.node for h in ctx.geometry.held if h.rope == 0]
+        width = ctx.params["hold_nodes"]
+        if not (isinstance(width, int) and width >= 1 and width % 2 == 1):
+            raise ConfigError("hold_nodes", f"must be an odd number of nodes >= 1, got {width!r}")
+        n = len(x)
+        held = sorted({min(max(h.node + k, 2), n - 3) for h in ctx.geometry.held if h.rope == 0
+                       for k in range(-(width // 2), width // 2 + 1)})
         ht = ctx.params["hold_time"]
         hold_time = math.inf if ht is None else float(ht)
         if held and hold_time > 0:

@@ -14,10 +14,12 @@ the safeguard of :func:`knotsim.solver.newton.newton_solve` removed those stalls
 
 Two modes (parameter ``mode``):
 
-* ``"displacement"``: the pulled end (two nodes + edge angle) moves at ``pull_speed`` (m/s);
+* ``"displacement"``: the pulled end (two nodes + edge angle) moves at ``pull_speed`` (m/s,
+  default 10 mm/s) for ``pull_length`` (m, default 0.4: 40 s) unless ``duration`` is given;
   recorded: the axial reaction ``F`` (N) there;
 * ``"force"``: a total force ``F = force_rate * t`` (N, ``force_rate`` in N/s) along the axis is
-  applied to the two pulled end nodes (twist free); recorded: the applied ``F``.
+  applied to the two pulled end nodes (twist free) for 40 s unless ``duration`` is given;
+  recorded: the applied ``F``.
 
 In both modes the log has ``F``, ``F_norm = F h^2 / EI``, ``F_held`` (N, axial reaction at the
 held end, positive in tension), ``u_pull`` (m): displacement of the pulled end along the axis
@@ -181,6 +183,7 @@ class TwoRopeBend(Protocol):
         "dt": 2e-3,  # s; no published value
         "mode": "displacement",
         "pull_speed": 0.01,    # m/s (displacement mode)
+        "pull_length": 0.4,    # m pulled in displacement mode when no duration is given
         "force_rate": 0.05,    # N/s (force mode)
         "runaway_speed": 0.05,  # m/s, force mode: pulled end faster than this = slipping
         "transient": 2.0,          # s, start-up transient left out of the holding force and slip detection
@@ -188,7 +191,7 @@ class TwoRopeBend(Protocol):
         "slip_hold": 2.0,          # s, the fast draw-in must last this long
         "output_interval": 0.1,
     }
-    quick = {"n_nodes": 101, "dt": 5e-3, "duration": 1.5, "output_interval": 0.5}
+    quick = {"n_nodes": 101, "dt": 5e-3, "duration": 1.5, "output_interval": 0.5, "transient": 0.3}
 
     def setup(self, ctx: RunContext) -> None:
         geo = ctx.geometry
@@ -222,7 +225,12 @@ class TwoRopeBend(Protocol):
         ctx.data["free_ends"] = [(held.rope, 1 - ctx.data["held_end"]), (pulled.rope, 1 - ctx.data["pulled_end"])]
 
     def duration(self, ctx: RunContext) -> float:
-        return 10.0
+        """Default run length (s): ``pull_length / pull_speed`` in displacement control (400 mm of
+        pull: the loose library bends are flattened and the reef and granny slip after about
+        300 mm, see ``validation/reports/knots_bends.md``), 40 s in force control."""
+        if ctx.params["mode"] == "displacement":
+            return float(ctx.params["pull_length"]) / float(ctx.params["pull_speed"])
+        return 40.0
 
     def closure(self, ctx: RunContext, curves):
         """One closed curve: the knot core (each rope cut to its part within ``5h + delta`` of the
