@@ -17,7 +17,8 @@ Set-ups:
   reaches 0.05 at an end-to-end distance of 0.807 m, so the window starts at 0.707 m). The other
   readings, the means, mu = 0.5 and the reef/granny ranking are then predictions.
 - reviewer checks on ``pre`` at mu = 0.1 (reef and granny): N = 201, pull speed 20 mm/s, contact
-  stiffness scaler 2000 (default 500), hold off, pre-tightening at 30 mm/s, pre_pull 0.48 m.
+  stiffness scaler 2000 (default 500), hold off, pre-tightening at 30 mm/s, pre_pull 0.48 m, 5 and
+  11 loop nodes held instead of 1 (the report does not say how much of the loop its hold grips).
 """
 
 from __future__ import annotations
@@ -51,8 +52,8 @@ PUBLISHED_TIME = {"granny": {2.5: 0.02, 5.0: 0.05, 7.5: 0.12, 10.0: 0.30, 12.5: 
 PRE_PULL = 0.42  # m, see the module docstring
 KNOTS = ("reef", "granny")
 
-#: Summary written at the top of the report (numbers from the runs of 2026-11-22; rerun and re-read
-#: the tables below if the solver changes).
+#: Summary written at the top of the report (numbers from the runs of 2026-11-22, the hold-width
+#: check from 2026-12-01; rerun and re-read the tables below if the solver changes).
 FINDINGS = """## Findings
 
 - **The published set-up on the library drawings never tightens the knot.** The drawings start with
@@ -81,6 +82,13 @@ FINDINGS = """## Findings
   twice the separation); N = 201 raises the reef by 9 % and the granny by 27 % (resolution matters
   for the granny's jam; N = 301 is the published value). No run penetrated (worst 0.000 h, the
   smallest gap stays positive); every knot kept its type.
+- **How much of the loop is held changes the magnitude, not the order** (μ = 0.1, `pre`): holding 5
+  or 11 loop nodes instead of 1 raises the reef mean from 0.144 to 0.175 / 0.272 and the granny from
+  0.181 to 0.256 / 0.344 (reef / granny 0.80, 0.68, 0.79). With one or five held nodes the reef
+  turns over during the pre-tightening (a ≈ 30 % force drop at an end-to-end distance of 638 /
+  659 mm, before the window: the compact knot above the loop rotates into the loop's plane, see the
+  render strip below); with eleven it does not, and it still stays below the granny. The reef's lower
+  force at μ = 0.1 is therefore not caused by that rearrangement alone.
 """
 
 
@@ -102,6 +110,8 @@ def _variants() -> list[dict]:
         ("kc2000", "contact stiffness scaler 2000 (default 500)", {"contact.stiffness_scaler": 2000.0}),
         ("prefast", "pre-pull at 30 mm/s per end, then 10 mm/s", {"pre_pull_speed": 0.03}),
         ("pre048", "pre_pull 0.48 m (tighter start)", {"pre_pull": 0.48}),
+        ("hold5", "5 loop nodes held (13 mm; default 1)", {"hold_nodes": 5}),
+        ("hold11", "11 loop nodes held (33 mm; default 1)", {"hold_nodes": 11}),
     ]
     for name, label, ov in checks:
         for k in KNOTS:
@@ -198,8 +208,16 @@ def _knot_box(x: np.ndarray, h: float, loose: bool, pad: float = 0.012) -> np.nd
     return np.array([[c[0] - half, c[0] + half], [c[1] - half, c[1] + half], [c[2] - half, c[2] + half]])
 
 
+def _turn_time(r: dict) -> float | None:
+    """Time (s) of the first sudden drop (> 20 %) of the pull force after 3 s of a run, or None."""
+    from knotsim.protocols.metrics import slip_onset
+
+    on = slip_onset(r["log"], "F_norm", drop_fraction=0.2, min_force=0.005, smooth=0.5, t0=3.0)
+    return None if on is None else float(on["time"])
+
+
 def _render(r: dict, which: str, name: str, title: str) -> str | None:
-    """Render frame ``which`` ("first", "window", "last") of run ``r`` (top view of the knot) to
+    """Render frame ``which`` ("first", "window", "last" or "t=SECONDS") of run ``r`` (top view of the knot) to
     ``reports/name``; returns the file name or None."""
     from knotsim.io.trajectory import read_trajectory
     from knotsim.viz.render import render_frame
@@ -207,8 +225,12 @@ def _render(r: dict, which: str, name: str, title: str) -> str | None:
     try:
         with read_trajectory(r["dir"] / "trajectory.h5", lazy=True) as traj:
             t_pre = r["summary"]["metrics"].get("pre_pull_time", 0.0) or 0.0
-            idx = {"first": 0, "last": traj.n_frames - 1,
-                   "window": int(np.argmin(np.abs(np.asarray(traj.time) - t_pre)))}[which]
+            times = np.asarray(traj.time)
+            if which.startswith("t="):  # a given time, s
+                idx = int(np.argmin(np.abs(times - float(which[2:]))))
+            else:
+                idx = {"first": 0, "last": traj.n_frames - 1,
+                       "window": int(np.argmin(np.abs(times - t_pre)))}[which]
             x = traj.centerlines(idx)[0]
             h = float(np.atleast_1d(traj.rod_radius)[0])
             t = float(traj.time[idx])
@@ -428,6 +450,12 @@ def report(runs: Path) -> None:
              ("pre_granny_mu0.1", "last", "knots_single_rod_pre_end_granny.png", "granny, pre, μ = 0.1, end"),
              ("nohold_reef_mu0.1", "last", "knots_single_rod_nohold_end_reef.png", "reef, hold off, end"),
              ("nohold_granny_mu0.1", "last", "knots_single_rod_nohold_end_granny.png", "granny, hold off, end")]
+    turn = _turn_time(R["pre_reef_mu0.1"]) if "pre_reef_mu0.1" in R else None
+    if turn is not None:  # the reef turning over during the pre-tightening (see the findings)
+        shots += [("pre_reef_mu0.1", f"t={turn - 1.5:.2f}", "knots_single_rod_reef_turn_before.png",
+                   "reef, pre, μ = 0.1, before the force drop"),
+                  ("pre_reef_mu0.1", f"t={turn + 1.0:.2f}", "knots_single_rod_reef_turn_after.png",
+                   "reef, pre, μ = 0.1, after the force drop")]
     for key, which, name, title in shots:
         if key in R:
             png = _render(R[key], which, name, title)

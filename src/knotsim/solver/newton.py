@@ -57,7 +57,7 @@ class NewtonResult:
 
 def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 25,
                  line_search: bool = True, max_cuts: int = 8, reuse_jacobian: bool = False,
-                 reuse_ratio: float = 0.25, stall_iterations: int = 5, safeguard_cuts: int = 30) -> NewtonResult:
+                 reuse_ratio: float = 0.25, stall_iterations: int = 10, safeguard_cuts: int = 30) -> NewtonResult:
     """Solve ``residual(q) = 0`` from ``q0`` (prescribed unknowns already set in ``q0``).
 
     Each iteration solves ``J dq = -r`` and accepts ``q + a dq`` with the largest
@@ -78,7 +78,9 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
     points for ever, at any time step. When the best residual norm has not halved for
     ``stall_iterations`` iterations, the rest of the solve uses a fresh Jacobian every iteration
     and a line search on the Euclidean residual norm alone (``system.residual_norm2``), for which
-    the Newton direction is always a descent direction, with up to ``safeguard_cuts`` halvings.
+    the Newton direction is a descent direction when the Jacobian is exact, with up to
+    ``safeguard_cuts`` halvings; an iteration in which that norm does not fall along ``dq`` (an
+    inexact Jacobian) takes the ordinary line search instead.
     ``NewtonResult.line_search_cuts`` counts the cuts of both line searches.
     """
     norm2 = getattr(system, "residual_norm2", None) or (lambda r: float(np.linalg.norm(r)))
@@ -114,6 +116,7 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
         a = 1.0
         if safeguarded:
             n0 = norm2(r)
+            merit_q = system.merit
             q_try = q + dq
             r_try = system.residual(q_try, True)
             cuts = 0
@@ -122,12 +125,17 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
                 cuts += 1
                 q_try = q + a * dq
                 r_try = system.residual(q_try, False)
-            if cuts:
-                r_try = system.residual(q_try, True)
             cuts_total += cuts
-            step = system.step_norm(a * dq)
-            q, r, rn = q_try, r_try, system.residual_norm(r_try)
-            continue
+            if norm2(r_try) <= (1.0 - 1e-4 * a) * n0:
+                if cuts:
+                    r_try = system.residual(q_try, True)
+                step = system.step_norm(a * dq)
+                q, r, rn = q_try, r_try, system.residual_norm(r_try)
+                continue
+            # no descent of the Euclidean norm along dq (the Jacobian is not exact, e.g. DER's
+            # skew reference-twist term): this iteration takes the ordinary line search below
+            system.merit = merit_q
+            a = 1.0
         merit0 = system.merit
         slope = float(np.dot(r, dq))
         q_try = q + dq
