@@ -165,3 +165,36 @@ def test_single_rod_hold_nodes(tmp_path):
     assert moved[hint - 3] > 1e-6 and moved[hint + 3] > 1e-6
     with pytest.raises(ConfigError, match="hold_nodes"):
         run_protocol("single-rod-bend", "single_rod_reef", quick=True, overrides={"hold_nodes": 2})
+
+
+def test_two_rope_bend_cinching_stage(tmp_path):
+    """``pre_tighten``: all four ends move outwards by the given distance, then the tails are free."""
+    from knotsim.io.trajectory import read_trajectory
+
+    p, v = 0.01, 0.02
+    s = run_protocol("two-rope-bend", "reef_bend", out_dir=tmp_path, quick=True,
+                     overrides={"n_nodes": 81, "pre_tighten": p, "pre_tighten_speed": v, "duration": 0.9,
+                                "output_interval": 0.05})
+    assert s["run_status"] == "completed"
+    assert s["metrics"]["pre_tighten_time"] == pytest.approx(p / v)
+    tr = read_trajectory(tmp_path / "trajectory.h5")
+    k = int(np.argmin(np.abs(np.asarray(tr.time) - p / v)))
+    for r in range(2):
+        x0, xk = np.asarray(tr.centerlines(0)[r]), np.asarray(tr.centerlines(k)[r])
+        for end, inner in ((0, 5), (-1, -6)):
+            out = x0[end] - x0[inner]
+            out /= np.linalg.norm(out)
+            # each end node moved outwards along its end tangent by p (the tails are released at the
+            # step that ends at t_pre, hence the 1 % tolerance)
+            assert np.dot(xk[end] - x0[end], out) == pytest.approx(p, rel=1e-2)
+    # afterwards the held end (rope a, last node) stays, the pulled end (rope b, first node) is pulled on
+    xe = [np.asarray(c) for c in tr.centerlines(tr.n_frames - 1)]
+    xk = [np.asarray(c) for c in tr.centerlines(k)]
+    assert np.linalg.norm(xe[0][-1] - xk[0][-1]) < 1e-12
+    assert np.linalg.norm(xe[1][0] - xk[1][0]) == pytest.approx(0.01 * (0.9 - p / v), rel=1e-6)
+    log = pd.read_parquet(tmp_path / "log.parquet")
+    assert log["time"].iloc[-1] == pytest.approx(0.9)
+    with pytest.raises(ConfigError, match="pre_tighten"):
+        run_protocol("two-rope-bend", "reef_bend", quick=True, overrides={"pre_tighten": -0.1})
+    with pytest.raises(ConfigError, match="pre_tighten_speed"):
+        run_protocol("two-rope-bend", "reef_bend", quick=True, overrides={"pre_tighten": 0.1, "pre_tighten_speed": 0.0})

@@ -21,6 +21,13 @@ Two modes (parameter ``mode``):
   applied to the two pulled end nodes (twist free) for 40 s unless ``duration`` is given;
   recorded: the applied ``F``.
 
+Cinching stage (``pre_tighten``, m, default 0 = off): the library bends are drawn loose, and
+Patil compared tightened bends. With ``pre_tighten = p`` all four ends (two end nodes and their
+edge angle each) first move outwards along their own end tangents by ``p`` at
+``pre_tighten_speed`` (m/s), taking ``t_pre = p / pre_tighten_speed``; then the tails are released,
+the held end stays where it got to, and the pull (or the force ramp) starts. The metrics refer to
+the pull after ``t_pre`` (their times count from ``t_pre``); the run lasts ``t_pre`` longer.
+
 In both modes the log has ``F``, ``F_norm = F h^2 / EI``, ``F_held`` (N, axial reaction at the
 held end, positive in tension), ``u_pull`` (m): displacement of the pulled end along the axis
 since the start, and the tail lengths ``tail_a``, ``tail_b`` (m).
@@ -173,6 +180,31 @@ def close_bend(ropes: list[np.ndarray], axis: np.ndarray, standing_a: tuple[int,
     return np.concatenate([a, np.array(standing), b, np.array(tails)])
 
 
+def ctx_free_ends(held, pulled) -> list[tuple[int, int]]:
+    """``(rope, end)`` of the two free tails: the other end of the held and of the pulled rope
+    (end 0 = first node, 1 = last node)."""
+    return [(held.rope, 0 if held.node != 0 else 1), (pulled.rope, 0 if pulled.node != 0 else 1)]
+
+
+def pre_tighten_time(params) -> float:
+    """Duration (s) of the cinching stage, ``pre_tighten / pre_tighten_speed`` (0 when off).
+
+    Raises
+    ------
+    ConfigError
+        For a negative ``pre_tighten`` or a non-positive speed.
+    """
+    p = float(params["pre_tighten"] or 0.0)
+    if p < 0 or not np.isfinite(p):
+        raise ConfigError("pre_tighten", f"must be a distance >= 0 in m, got {p!r}")
+    if p == 0:
+        return 0.0
+    v = float(params["pre_tighten_speed"])
+    if not v > 0:
+        raise ConfigError("pre_tighten_speed", f"must be a speed > 0 in m/s, got {v!r}")
+    return p / v
+
+
 class TwoRopeBend(Protocol):
     name = "two-rope-bend"
     description = "Hold one end of rope A, pull the far end of rope B, tails free (Patil et al. 2020)"
@@ -184,6 +216,8 @@ class TwoRopeBend(Protocol):
         "mode": "displacement",
         "pull_speed": 0.01,    # m/s (displacement mode)
         "pull_length": 0.4,    # m pulled in displacement mode when no duration is given
+        "pre_tighten": 0.0,    # m each of the four ends moves outwards first (0: no cinching stage)
+        "pre_tighten_speed": 0.01,  # m/s per end during the cinching stage
         "force_rate": 0.05,    # N/s (force mode)
         "runaway_speed": 0.05,  # m/s, force mode: pulled end faster than this = slipping
         "transient": 2.0,          # s, start-up transient left out of the holding force and slip detection
@@ -212,25 +246,58 @@ class TwoRopeBend(Protocol):
         ctx.data.update(axis=axis, held=held, pulled=pulled,
                         held_end=0 if held.node == 0 else 1, pulled_end=0 if pulled.node == 0 else 1)
         pull_nodes = end_group_nodes(pulled.node, n)
-        ctx.bcs.clamp("held", rod=held.rope, nodes=end_group_nodes(held.node, n))
+        held_nodes = end_group_nodes(held.node, n)
+        t_pre = pre_tighten_time(ctx.params)
+        ctx.data["t_pre"] = t_pre
+        if t_pre > 0:
+            # cinch first: all four ends move outwards along their own end tangents, then the tails
+            # are released, the held end stays where it got to and the pulled end goes on
+            v_pre = float(ctx.params["pre_tighten_speed"])
+
+            def outward(rope: int, node: int):
+                x = geo.ropes[rope]
+                inner = min(5, len(x) - 1)
+                return unit(x[node] - x[inner if node == 0 else len(x) - 1 - inner])
+
+            def pre(t, d, v_pre=v_pre, t_pre=t_pre):
+                return v_pre * min(t, t_pre) * d
+
+            d_held = outward(held.rope, held.node)
+            d_pull = outward(pulled.rope, pulled.node)
+            ctx.bcs.move("held", rod=held.rope, nodes=held_nodes, path=lambda t, d=d_held: pre(t, d))
+            for name, (rope, end) in zip(("tail_a", "tail_b"), ctx_free_ends(held, pulled), strict=True):
+                node = 0 if end == 0 else n - 1
+                ctx.bcs.move(f"pre_{name}", rod=rope, nodes=end_group_nodes(node, n),
+                             path=lambda t, d=outward(rope, node): pre(t, d), stop=t_pre)
+        else:
+            ctx.bcs.clamp("held", rod=held.rope, nodes=held_nodes)
+            d_pull = axis
         if mode == "displacement":
             v = float(ctx.params["pull_speed"])
-            ctx.bcs.move("pull", rod=pulled.rope, nodes=pull_nodes, path=list(v * axis))
+            if t_pre > 0:
+                ctx.bcs.move("pull", rod=pulled.rope, nodes=pull_nodes,
+                             path=lambda t, d=d_pull, v=v: pre(t, d) + v * max(t - t_pre, 0.0) * axis)
+            else:
+                ctx.bcs.move("pull", rod=pulled.rope, nodes=pull_nodes, path=list(v * axis))
         else:
             rate = float(ctx.params["force_rate"])
-            ctx.bcs.force("pull", rod=pulled.rope, nodes=pull_nodes,
-                          force=lambda t, a=axis, r=rate: r * t * a)
+            if t_pre > 0:
+                ctx.bcs.move("pre_pull", rod=pulled.rope, nodes=pull_nodes, path=lambda t, d=d_pull: pre(t, d),
+                             stop=t_pre)
+            ctx.bcs.force("pull", rod=pulled.rope, nodes=pull_nodes, start=t_pre,
+                          force=lambda t, a=axis, r=rate: r * max(t - t_pre, 0.0) * a)
         ctx.data["pull_nodes"] = ctx.model.global_nodes(pulled.rope, pull_nodes)
         ctx.data["x_pull0"] = np.mean([geo.ropes[pulled.rope][i] for i in pull_nodes], axis=0)
-        ctx.data["free_ends"] = [(held.rope, 1 - ctx.data["held_end"]), (pulled.rope, 1 - ctx.data["pulled_end"])]
+        ctx.data["free_ends"] = ctx_free_ends(held, pulled)
 
     def duration(self, ctx: RunContext) -> float:
         """Default run length (s): ``pull_length / pull_speed`` in displacement control (400 mm of
         pull: the loose library bends are flattened and the reef and granny slip after about
         300 mm, see ``validation/reports/knots_bends.md``), 40 s in force control."""
+        t_pre = ctx.data.get("t_pre", 0.0)
         if ctx.params["mode"] == "displacement":
-            return float(ctx.params["pull_length"]) / float(ctx.params["pull_speed"])
-        return 40.0
+            return t_pre + float(ctx.params["pull_length"]) / float(ctx.params["pull_speed"])
+        return t_pre + 40.0
 
     def closure(self, ctx: RunContext, curves):
         """One closed curve: the knot core (each rope cut to its part within ``5h + delta`` of the
@@ -258,9 +325,16 @@ class TwoRopeBend(Protocol):
                 "tail_a": ta, "tail_b": tb}
 
     def metrics(self, ctx: RunContext, log) -> dict:
+        t_pre = float(ctx.data.get("t_pre", 0.0)) if hasattr(ctx, "data") else 0.0
+        if t_pre > 0:  # metrics on the pull after the cinching stage, time from its end
+            log = log[log["time"] >= t_pre - 1e-9].copy()
+            log["time"] = log["time"] - t_pre
+            if len(log) < 2:
+                return {"mode": ctx.params["mode"], "pre_tighten_time": t_pre}
         t = np.asarray(log["time"], float)
         out = {
             "mode": ctx.params["mode"],
+            "pre_tighten_time": t_pre,
             "F_norm_mean": window_mean(log, "F_norm"),
             "F_norm_peak": window_peak(log, "F_norm"),
             "F_norm_final": window_mean(log, "F_norm", float(log["time"].iloc[-1]) - 0.25),  # last 0.25 s
