@@ -267,8 +267,9 @@ class TwoRopeBend(Protocol):
             ctx.bcs.move("held", rod=held.rope, nodes=held_nodes, path=lambda t, d=d_held: pre(t, d))
             for name, (rope, end) in zip(("tail_a", "tail_b"), ctx_free_ends(held, pulled), strict=True):
                 node = 0 if end == 0 else n - 1
+                d_tail = outward(rope, node)
                 ctx.bcs.move(f"pre_{name}", rod=rope, nodes=end_group_nodes(node, n),
-                             path=lambda t, d=outward(rope, node): pre(t, d), stop=t_pre)
+                             path=lambda t, d=d_tail: pre(t, d), stop=t_pre)
         else:
             ctx.bcs.clamp("held", rod=held.rope, nodes=held_nodes)
             d_pull = axis
