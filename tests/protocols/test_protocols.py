@@ -198,3 +198,27 @@ def test_two_rope_bend_cinching_stage(tmp_path):
         run_protocol("two-rope-bend", "reef_bend", quick=True, overrides={"pre_tighten": -0.1})
     with pytest.raises(ConfigError, match="pre_tighten_speed"):
         run_protocol("two-rope-bend", "reef_bend", quick=True, overrides={"pre_tighten": 0.1, "pre_tighten_speed": 0.0})
+
+
+def test_bend_end_interleaving_and_mirror_free_key():
+    """Thief and grief alternate standing ends and tails around the knot, reef and granny do not;
+    for the former the knot type is compared without its handedness (a closure convention)."""
+    from types import SimpleNamespace
+
+    from knotsim.knots.library import get_knot
+    from knotsim.protocols.two_rope_bend import TwoRopeBend, ends_interleaved
+
+    for name, expected in (("reef_bend", False), ("granny_bend", False), ("thief_bend", True),
+                           ("grief_bend", True)):
+        g = get_knot(name, n_nodes=101)
+        standing = [(g.held[0].rope, g.held[0].node), (g.pulled[0].rope, g.pulled[0].node)]
+        assert ends_interleaved(g.ropes, standing) is expected, name
+    proto = TwoRopeBend()
+    left = {"signature": "6_1_left", "knot_type": "6_1_left", "rolfsen": "6_1"}
+    right = {"signature": "6_1_right", "knot_type": "6_1_right", "rolfsen": "6_1"}
+    unknot = {"signature": "unknot", "knot_type": "unknot", "rolfsen": "0_1"}
+    inter = SimpleNamespace(data={"ends_interleaved": True})
+    side = SimpleNamespace(data={"ends_interleaved": False})
+    assert proto.topology_key(inter, left) == proto.topology_key(inter, right) == "6_1"
+    assert proto.topology_key(inter, unknot) == "unknot"  # untying still shows
+    assert proto.topology_key(side, left) != proto.topology_key(side, right)

@@ -249,6 +249,11 @@ class Protocol:
         """Whether the metrics say the knot slipped (used in the outcome)."""
         return False
 
+    def topology_key(self, ctx: RunContext, topo: dict) -> str | None:
+        """What must be equal at the start and the end for the knot to count as unchanged (default:
+        the knot type with its handedness, ``topo["signature"]``; ``None`` if the check failed)."""
+        return topo.get("signature")
+
 
 _REGISTRY: dict[str, Protocol] = {}
 
@@ -446,7 +451,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     slipped = proto.slipped(ctx, metrics)
     from knotsim.protocols.metrics import knot_status
 
-    status = knot_status(topo_start.get("signature"), topo_end.get("signature"), slipped)
+    status = knot_status(proto.topology_key(ctx, topo_start), proto.topology_key(ctx, topo_end), slipped)
     if status == "changed knot type":
         outcome = f"changed knot type ({topo_start['signature']} -> {topo_end['signature']})"
     elif status == "unknown":

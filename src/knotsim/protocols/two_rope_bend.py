@@ -59,6 +59,8 @@ pulled-end draw-in; and the slip onset, which decides the outcome ``"slipped"``:
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -186,6 +188,30 @@ def ctx_free_ends(held, pulled) -> list[tuple[int, int]]:
     return [(held.rope, 0 if held.node != 0 else 1), (pulled.rope, 0 if pulled.node != 0 else 1)]
 
 
+def ends_interleaved(ropes: list[np.ndarray], standing: list[tuple[int, int]]) -> bool:
+    """Whether the two standing ends and the two tails alternate around the knot (thief and grief
+    bends) rather than lying side by side (reef and granny): the angular order of the four end
+    nodes about the centroid, in the plane of largest spread of all nodes.
+
+    Parameters
+    ----------
+    ropes:
+        The two ropes' ``(N, 3)`` node positions (m).
+    standing:
+        ``(rope, node)`` of the two standing ends.
+    """
+    allp = np.concatenate(ropes)
+    c = allp.mean(axis=0)
+    e = np.linalg.svd(allp - c, full_matrices=False)[2]
+    ends = []
+    for r, x in enumerate(ropes):
+        for node in (0, len(x) - 1):
+            p = x[node] - c
+            ends.append((math.atan2(float(p @ e[1]), float(p @ e[0])), (r, node) in standing))
+    kinds = [k for _, k in sorted(ends)]
+    return all(kinds[i] != kinds[(i + 1) % 4] for i in range(4))
+
+
 def pre_tighten_time(params) -> float:
     """Duration (s) of the cinching stage, ``pre_tighten / pre_tighten_speed`` (0 when off).
 
@@ -290,6 +316,7 @@ class TwoRopeBend(Protocol):
         ctx.data["pull_nodes"] = ctx.model.global_nodes(pulled.rope, pull_nodes)
         ctx.data["x_pull0"] = np.mean([geo.ropes[pulled.rope][i] for i in pull_nodes], axis=0)
         ctx.data["free_ends"] = ctx_free_ends(held, pulled)
+        ctx.data["ends_interleaved"] = ends_interleaved(geo.ropes, [(held.rope, held.node), (pulled.rope, pulled.node)])
 
     def duration(self, ctx: RunContext) -> float:
         """Default run length (s): ``pull_length / pull_speed`` in displacement control (400 mm of
@@ -367,6 +394,16 @@ class TwoRopeBend(Protocol):
                                   "criterion": "runaway"})
             out["F_norm_hold"] = float(f[k] if k is not None else f[-1])
         return out
+
+    def topology_key(self, ctx: RunContext, topo: dict) -> str | None:
+        """The knot type, without its handedness when the bend's standing ends and tails alternate
+        around the knot (thief, grief): their closure must cross one join over the other, and which
+        way round is a convention (:func:`close_bend`) that can flip once rope has travelled around
+        the ring; a real change (untied, another knot) still shows."""
+        key = topo.get("signature")
+        if key is None or not ctx.data.get("ends_interleaved") or topo.get("knot_type") in ("unknot", "unlink"):
+            return key
+        return topo.get("rolfsen") or key
 
     def slipped(self, ctx: RunContext, metrics: dict) -> bool:
         return metrics.get("slip_onset") is not None
