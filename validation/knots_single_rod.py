@@ -66,13 +66,14 @@ FINDINGS = """## Findings
   13 s means reef 0.144 / granny 0.180 against 0.367 / 0.264 (0.39× / 0.68×). `pre_pull = 0.48 m`
   gives 0.268 / 0.304 (0.73× / 1.15×).
 - **No single slack fits both μ.** Friction jams the knot with much more rope in it at μ = 0.5: the
-  slack that fits μ = 0.1 puts the μ = 0.5 knots 2–3× above the published means (rod strain > 25 %;
-  the reef run stops at t = 8.1 s of the window, F h²/EI ≈ 2.2, its mean covers 8.1 s only), while
-  `pre_pull` 0.2–0.3 m brackets the published μ = 0.5 means (0.57 / 0.54 at 0.2 m, 1.17 / 1.14 at
-  0.3 m; published 0.83 / 0.64) but leaves μ = 0.1 loose (0.014 / 0.022 and 0.031 / 0.051). Our jam
-  point depends on μ much more strongly than the published curves imply.
-- **Reef above granny is reproduced at μ = 0.5 only, and weakly:** reef / granny 1.03–1.11 for
-  every slack from 0 to 0.3 m (published 1.30). At μ = 0.1 the granny is at or above the reef for
+  slack that fits μ = 0.1 puts the μ = 0.5 knots 2–3× above the published means (rod strain > 20 %;
+  the reef run stops at t = 4.5 s of the window, F h²/EI ≈ 1.7, its mean covers 4.5 s only: Newton
+  stalls on the kink of the contact energy between two antiparallel edges pressed together, see
+  `docs/performance.md`), while `pre_pull` ≈ 0.2 m gives the published μ = 0.5 magnitude (0.57 /
+  0.54; published 0.83 / 0.64) but leaves μ = 0.1 loose (0.014 / 0.022). Our jam point depends on μ
+  much more strongly than the published curves imply.
+- **Reef above granny is reproduced at μ = 0.5 only, and weakly:** reef / granny 1.06–1.12 for
+  every slack from 0 to 0.2 m (published 1.30). At μ = 0.1 the granny is at or above the reef for
   every slack (0.62–0.97, published 1.39): the granny jams with slightly more rope in it, so it
   loads earlier; at equal separation deep in the jammed regime the two converge (0.385 vs 0.409 at
   950 mm). Without the hold both knots give the same force (ratio 0.99), as the report says.
@@ -453,9 +454,9 @@ def report(runs: Path) -> None:
     turn = _turn_time(R["pre_reef_mu0.1"]) if "pre_reef_mu0.1" in R else None
     if turn is not None:  # the reef turning over during the pre-tightening (see the findings)
         shots += [("pre_reef_mu0.1", f"t={turn - 1.5:.2f}", "knots_single_rod_reef_turn_before.png",
-                   "reef, pre, μ = 0.1, before the force drop"),
+                   "reef, μ = 0.1, before the drop"),
                   ("pre_reef_mu0.1", f"t={turn + 1.0:.2f}", "knots_single_rod_reef_turn_after.png",
-                   "reef, pre, μ = 0.1, after the force drop")]
+                   "reef, μ = 0.1, after the drop")]
     for key, which, name, title in shots:
         if key in R:
             png = _render(R[key], which, name, title)
