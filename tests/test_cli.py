@@ -223,3 +223,16 @@ def test_export_vtk(runner, config_file, tmp_path):
     assert res.exit_code == 0, res.output
     assert list((tmp_path / "vtk").glob("*.pvd"))
     assert list((tmp_path / "vtk").glob("*.vtp"))
+
+
+@pytest.mark.slow
+def test_validate_quick_real_cases_all_pass(runner):
+    """``knotsim validate --quick`` on the real cases (engine, contact, overhand, single-rod reef and
+    granny, bends; about 20 s): every row passes and the exit code is 0."""
+    res = runner.invoke(main, ["validate", "--quick", "--json-only"])
+    assert res.exit_code == 0, res.output[-3000:]
+    data = json.loads(res.output.strip().splitlines()[-1])
+    failed = [(c["case"], c["quantity"]) for c in data["cases"] if not c["passed"]]
+    assert data["passed"] and not failed, failed
+    assert {c["case"] for c in data["cases"]} >= {"cantilever", "helix", "contact", "overhand_tightening",
+                                                   "single_rod_bend", "bends"}
