@@ -222,3 +222,28 @@ def test_bend_end_interleaving_and_mirror_free_key():
     assert proto.topology_key(inter, left) == proto.topology_key(inter, right) == "6_1"
     assert proto.topology_key(inter, unknot) == "unknot"  # untying still shows
     assert proto.topology_key(side, left) != proto.topology_key(side, right)
+
+
+def test_unidentified_end_compared_by_invariants():
+    """An end state the table does not name ("unknown") with the start's Alexander polynomial and
+    determinant is the same knot (measured: a reef bend at mu = 0.5 whose end diagram stayed at 8
+    crossings); a different polynomial is still a change."""
+    from types import SimpleNamespace
+
+    from knotsim.protocols.base import topology_keys
+    from knotsim.protocols.metrics import knot_status
+    from knotsim.protocols.two_rope_bend import TwoRopeBend
+
+    ctx = SimpleNamespace(data={"ends_interleaved": False})
+    reef = {"signature": "reef", "knot_type": "reef", "rolfsen": "3_1#3_1*", "alexander": [1, -2, 3, -2, 1],
+            "determinant": 9}
+    same = {"signature": "unknown (Alexander [1, -2, 3, -2, 1], det 9)", "knot_type": "unknown", "rolfsen": None,
+            "alexander": [1, -2, 3, -2, 1], "determinant": 9}
+    other = {"signature": "unknown (Alexander [1, -3, 1], det 5)", "knot_type": "unknown", "rolfsen": None,
+             "alexander": [1, -3, 1], "determinant": 5}
+    trefoil = {"signature": "trefoil_left", "knot_type": "trefoil_left", "rolfsen": "3_1", "alexander": [1, -1, 1],
+               "determinant": 3}
+    proto = TwoRopeBend()
+    assert knot_status(*topology_keys(proto, ctx, reef, same)) == "held"
+    assert knot_status(*topology_keys(proto, ctx, reef, other)) == "changed knot type"
+    assert knot_status(*topology_keys(proto, ctx, reef, trefoil)) == "changed knot type"

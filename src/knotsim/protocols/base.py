@@ -312,6 +312,23 @@ def _topology(curves, closed, pairing) -> dict[str, Any]:
             "closure_errors": errors or None, "error": None}
 
 
+def topology_keys(proto: Protocol, ctx: RunContext, start: dict, end: dict) -> tuple[str | None, str | None]:
+    """The start and end keys compared for "knot type unchanged" (see :meth:`Protocol.topology_key`).
+
+    When one side is a knot outside the table (``"unknown"``: the simplified diagram was not
+    recognised) both sides are compared by their Alexander polynomial and determinant instead, so
+    that a failed identification of the same knot is not reported as a change. (These invariants do
+    not separate a knot from its mirror image, nor the reef from the granny; the contact model, whose
+    penetration is checked, is what keeps a rope from passing through another.)
+    """
+    k0, k1 = proto.topology_key(ctx, start), proto.topology_key(ctx, end)
+    if k0 is None or k1 is None or "unknown" not in (start.get("knot_type"), end.get("knot_type")):
+        return k0, k1
+    if start.get("alexander") is None or end.get("alexander") is None:
+        return k0, k1
+    return tuple(f"Alexander {t['alexander']}, det {t['determinant']}" for t in (start, end))
+
+
 def _json_default(obj):
     if isinstance(obj, np.integer):
         return int(obj)
@@ -451,7 +468,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     slipped = proto.slipped(ctx, metrics)
     from knotsim.protocols.metrics import knot_status
 
-    status = knot_status(proto.topology_key(ctx, topo_start), proto.topology_key(ctx, topo_end), slipped)
+    status = knot_status(*topology_keys(proto, ctx, topo_start, topo_end), slipped)
     if status == "changed knot type":
         outcome = f"changed knot type ({topo_start['signature']} -> {topo_end['signature']})"
     elif status == "unknown":
