@@ -244,3 +244,47 @@ def test_protocol_case(tmp_path):
     df = results_frame([case], StudyStore(tmp_path).finished())
     assert {"F_norm_mean", "protocol_outcome", "overrides.mu"} <= set(df.columns)
     assert (tmp_path / "cases" / case.case_id / "summary.json").is_file()
+
+
+def test_report_two_rope_bends_are_not_compared_with_mae259b(tmp_path):
+    """Reef and granny *bends* (two ropes, knot kind 'bend') x mu: no single-rod MAE259B section."""
+    import numpy as np
+
+    from knotsim.study.spec import load_study_spec
+    from knotsim.study.store import StudyStore
+
+    raw = {"name": "bends", "base": {"protocol": "two-rope-bend", "knot": "reef_bend", "overrides": {}},
+           "grid": {"knot": ["granny_bend", "reef_bend"], "overrides.mu": [0.2, 0.4]}}
+    spec = load_study_spec(raw)
+    cases = spec.expand()
+    store = StudyStore(tmp_path)
+    store.prepare(spec, session={})
+    records = {}
+    for c in cases:
+        d = store.case_dir(c.case_id)
+        d.mkdir(parents=True)
+        t = np.linspace(0, 13, 27)
+        pd.DataFrame({"time": t, "F_norm": t / 13}).to_parquet(d / "log.parquet")
+        rec = {"case_id": c.case_id, "outcome": "completed", "wall_time": 1.0, "host": "h",
+               "metrics": {"F_norm_hold": c.params["overrides.mu"], "knot_kind": "bend"}}
+        (d / "result.json").write_text(json.dumps(rec))
+        records[c.case_id] = rec
+    store.write_results(cases, records)
+    md = study_api.write_report(tmp_path).read_text()
+    assert "MAE259B" not in md and "0.834" not in md
+    assert "F_norm_hold" in md
+
+
+def test_report_plot_metrics_option(local_run, tmp_path):
+    """``knotsim report --metric NAME`` plots only the named metrics; an unknown name is an error
+    naming it (exit code 2) that leaves the existing figures alone."""
+    out0, df, _ = local_run
+    from knotsim.study.cli import report
+
+    res = CliRunner().invoke(report, [str(out0), "--metric", "steps"])
+    assert res.exit_code == 0, res.output
+    figs = sorted(p.name for p in (out0 / "report_figures").glob("*.png"))
+    assert figs and all(f.startswith("steps__vs__") for f in figs), figs
+    res = CliRunner().invoke(report, [str(out0), "--metric", "no_such_metric"])
+    assert res.exit_code == 2 and "no_such_metric" in res.output
+    assert sorted(p.name for p in (out0 / "report_figures").glob("*.png")) == figs

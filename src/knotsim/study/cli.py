@@ -120,12 +120,14 @@ def study(study_file: Path, study_dir: Path, workers: int | None, scheduler: str
 @click.argument("study_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
 @click.option("-o", "--output", "out", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Report file (default STUDY_DIR/report.md; figures next to it in report_figures/).")
+@click.option("--metric", "metrics", multiple=True, metavar="NAME",
+              help="Plot only this metric against the swept parameters (repeatable), e.g. --metric F_norm_hold.")
 @_exit_codes
-def report(study_dir: Path, out: Path | None):
+def report(study_dir: Path, out: Path | None, metrics: tuple[str, ...]):
     """Write a Markdown report (tables and PNG plots) of the study in STUDY_DIR."""
     from knotsim.study.report import write_report
 
-    path = write_report(study_dir, out)
+    path = write_report(study_dir, out, plot_metrics=list(metrics) or None)
     click.echo(str(path))
 
 

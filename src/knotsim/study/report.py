@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import os
 import re
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -141,7 +142,14 @@ def _is_numeric_values(values) -> bool:
 
 # ------------------------------------------------------------------------------------------ MAE259B
 def _find_knot_mu(df, params: list[str]) -> tuple[str | None, str | None]:
+    """The knot and friction axes of a study of the MAE259B shape: single-rod reef and granny
+    (knots of kind ``single_rod_bend`` when the table says, so that two-rope reef and granny
+    *bends* are not compared with the single-rod published values) against ``mu``."""
     knot = mu = None
+    if "knot_kind" in df.columns:
+        kinds = {str(v) for v in df["knot_kind"].dropna().unique()}
+        if kinds and kinds != {"single_rod_bend"}:
+            return None, None
     for p in params:
         leaf = p.rsplit(".", 1)[-1]
         if leaf == "knot" or p == "knot":
@@ -299,23 +307,39 @@ def _generic_plots(df, params, metrics, figdir: Path, max_plots: int) -> list[st
 
 
 # ------------------------------------------------------------------------------------------ report
-def write_report(study_dir: str | os.PathLike, out: str | os.PathLike | None = None, *, max_plots: int = 60) -> Path:
+def write_report(study_dir: str | os.PathLike, out: str | os.PathLike | None = None, *, max_plots: int = 60,
+                 plot_metrics: Sequence[str] | None = None) -> Path:
     """Write the Markdown report of ``study_dir`` (default ``study_dir/report.md``) and its figures
     (``report_figures/`` next to it); returns the report's path. ``max_plots`` limits the
-    number of generic plots."""
+    number of generic plots; ``plot_metrics`` (metric column names, e.g. ``["F_norm_hold"]``)
+    plots only those, in that order (default: every numeric metric that varies).
+
+    Raises
+    ------
+    ConfigError
+        When a name in ``plot_metrics`` is not a metric column of the study.
+    """
     from knotsim.study.store import StudyStore, load_study
 
     study_dir = Path(study_dir)
     df = load_study(study_dir)
     out = Path(out) if out is not None else study_dir / "report.md"
     figdir = out.parent / "report_figures"
-    figdir.mkdir(parents=True, exist_ok=True)
-    for old in figdir.glob("*.png"):
-        old.unlink()
     store = StudyStore(study_dir)
     prov = store.read_provenance()
     params = _param_columns(study_dir, df)
     metrics = _metric_columns(df, params) if len(df) else []
+    plotted = metrics
+    if plot_metrics is not None:
+        unknown = [m for m in plot_metrics if m not in df.columns]
+        if unknown:
+            from knotsim.errors import ConfigError
+
+            raise ConfigError("metric", f"no metric column {unknown[0]!r} in the study; metrics are {metrics}")
+        plotted = list(plot_metrics)
+    figdir.mkdir(parents=True, exist_ok=True)
+    for old in figdir.glob("*.png"):
+        old.unlink()
 
     name = prov.get("study") or study_dir.name
     lines = [f"# Study report: {name}", ""]
@@ -361,7 +385,7 @@ def write_report(study_dir: str | os.PathLike, out: str | os.PathLike | None = N
             lines += ["## Failed cases", "", _md_table(failed, ["case_id", *params, "error"]), "",
                       "Tracebacks: column `traceback` of results.parquet and `cases/<case_id>/error.txt`.", ""]
         lines += _mae259b(study_dir, df, params, figdir)
-        plots = _generic_plots(df, params, metrics, figdir, max_plots)
+        plots = _generic_plots(df, params, plotted, figdir, max_plots)
         if plots:
             lines += ["## Metrics against swept parameters", "", *plots]
     else:
