@@ -182,7 +182,7 @@ def close_bend(ropes: list[np.ndarray], axis: np.ndarray, standing_a: tuple[int,
     return np.concatenate([a, np.array(standing), b, np.array(tails)])
 
 
-def ctx_free_ends(held, pulled) -> list[tuple[int, int]]:
+def free_tail_ends(held, pulled) -> list[tuple[int, int]]:
     """``(rope, end)`` of the two free tails: the other end of the held and of the pulled rope
     (end 0 = first node, 1 = last node)."""
     return [(held.rope, 0 if held.node != 0 else 1), (pulled.rope, 0 if pulled.node != 0 else 1)]
@@ -291,7 +291,7 @@ class TwoRopeBend(Protocol):
             d_held = outward(held.rope, held.node)
             d_pull = outward(pulled.rope, pulled.node)
             ctx.bcs.move("held", rod=held.rope, nodes=held_nodes, path=lambda t, d=d_held: pre(t, d))
-            for name, (rope, end) in zip(("tail_a", "tail_b"), ctx_free_ends(held, pulled), strict=True):
+            for name, (rope, end) in zip(("tail_a", "tail_b"), free_tail_ends(held, pulled), strict=True):
                 node = 0 if end == 0 else n - 1
                 d_tail = outward(rope, node)
                 ctx.bcs.move(f"pre_{name}", rod=rope, nodes=end_group_nodes(node, n),
@@ -315,7 +315,7 @@ class TwoRopeBend(Protocol):
                           force=lambda t, a=axis, r=rate: r * max(t - t_pre, 0.0) * a)
         ctx.data["pull_nodes"] = ctx.model.global_nodes(pulled.rope, pull_nodes)
         ctx.data["x_pull0"] = np.mean([geo.ropes[pulled.rope][i] for i in pull_nodes], axis=0)
-        ctx.data["free_ends"] = ctx_free_ends(held, pulled)
+        ctx.data["free_ends"] = free_tail_ends(held, pulled)
         ctx.data["ends_interleaved"] = ends_interleaved(geo.ropes, [(held.rope, held.node), (pulled.rope, pulled.node)])
 
     def duration(self, ctx: RunContext) -> float:
@@ -353,7 +353,7 @@ class TwoRopeBend(Protocol):
                 "tail_a": ta, "tail_b": tb}
 
     def metrics(self, ctx: RunContext, log) -> dict:
-        t_pre = float(ctx.data.get("t_pre", 0.0)) if hasattr(ctx, "data") else 0.0
+        t_pre = float(getattr(ctx, "data", {}).get("t_pre", 0.0))
         if t_pre > 0:  # metrics on the pull after the cinching stage, time from its end
             log = log[log["time"] >= t_pre - 1e-9].copy()
             log["time"] = log["time"] - t_pre
