@@ -179,15 +179,14 @@ def test_cli_study_and_report(local_run, study_file, tmp_path):
             assert im.size == (640, 400)
 
 
-def test_report_mae259b_shape(tmp_path):
-    """A synthetic knot x mu study with traction time series gets the MAE259B figures."""
+def _synthetic_study(tmp_path, raw: dict, metrics) -> None:
+    """Write a finished study of ``raw``'s cases without running them: each case gets a traction
+    log ``F_norm = mu t / 13`` over 13 s and the metrics ``metrics(case params)``."""
     import numpy as np
 
     from knotsim.study.spec import load_study_spec
     from knotsim.study.store import StudyStore
 
-    raw = {"name": "mae", "base": {"protocol": "single-rod-bend", "knot": "single_rod_reef", "overrides": {}},
-           "grid": {"knot": ["single_rod_granny", "single_rod_reef"], "overrides.mu": [0.1, 0.3, 0.5]}}
     spec = load_study_spec(raw)
     cases = spec.expand()
     store = StudyStore(tmp_path)
@@ -196,14 +195,21 @@ def test_report_mae259b_shape(tmp_path):
     for c in cases:
         d = store.case_dir(c.case_id)
         d.mkdir(parents=True)
-        mu = c.params["overrides.mu"]
         t = np.linspace(0, 13, 27)
-        pd.DataFrame({"time": t, "F_norm": mu * t / 13}).to_parquet(d / "log.parquet")
+        pd.DataFrame({"time": t, "F_norm": c.params["overrides.mu"] * t / 13}).to_parquet(d / "log.parquet")
         rec = {"case_id": c.case_id, "outcome": "completed", "wall_time": 1.0, "host": "h",
-               "metrics": {"F_norm_mean": mu + (0.1 if "reef" in c.params["knot"] else 0.0)}}
+               "metrics": metrics(c.params)}
         (d / "result.json").write_text(json.dumps(rec))
         records[c.case_id] = rec
     store.write_results(cases, records)
+
+
+def test_report_mae259b_shape(tmp_path):
+    """A synthetic knot x mu study with traction time series gets the MAE259B figures."""
+    raw = {"name": "mae", "base": {"protocol": "single-rod-bend", "knot": "single_rod_reef", "overrides": {}},
+           "grid": {"knot": ["single_rod_granny", "single_rod_reef"], "overrides.mu": [0.1, 0.3, 0.5]}}
+    _synthetic_study(tmp_path, raw, lambda p: {
+        "F_norm_mean": p["overrides.mu"] + (0.1 if "reef" in p["knot"] else 0.0)})
     md = study_api.write_report(tmp_path).read_text()
     assert "MAE259B" in md and "| reef | 0.5 |" in md and "0.834" in md
     from PIL import Image
@@ -248,28 +254,9 @@ def test_protocol_case(tmp_path):
 
 def test_report_two_rope_bends_are_not_compared_with_mae259b(tmp_path):
     """Reef and granny *bends* (two ropes, knot kind 'bend') x mu: no single-rod MAE259B section."""
-    import numpy as np
-
-    from knotsim.study.spec import load_study_spec
-    from knotsim.study.store import StudyStore
-
     raw = {"name": "bends", "base": {"protocol": "two-rope-bend", "knot": "reef_bend", "overrides": {}},
            "grid": {"knot": ["granny_bend", "reef_bend"], "overrides.mu": [0.2, 0.4]}}
-    spec = load_study_spec(raw)
-    cases = spec.expand()
-    store = StudyStore(tmp_path)
-    store.prepare(spec, session={})
-    records = {}
-    for c in cases:
-        d = store.case_dir(c.case_id)
-        d.mkdir(parents=True)
-        t = np.linspace(0, 13, 27)
-        pd.DataFrame({"time": t, "F_norm": t / 13}).to_parquet(d / "log.parquet")
-        rec = {"case_id": c.case_id, "outcome": "completed", "wall_time": 1.0, "host": "h",
-               "metrics": {"F_norm_hold": c.params["overrides.mu"], "knot_kind": "bend"}}
-        (d / "result.json").write_text(json.dumps(rec))
-        records[c.case_id] = rec
-    store.write_results(cases, records)
+    _synthetic_study(tmp_path, raw, lambda p: {"F_norm_hold": p["overrides.mu"], "knot_kind": "bend"})
     md = study_api.write_report(tmp_path).read_text()
     assert "MAE259B" not in md and "0.834" not in md
     assert "F_norm_hold" in md

@@ -509,6 +509,27 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
 
 
 # ------------------------------------------------------------------------------------------ helpers
+def stage_duration(distance, speed, distance_field: str, speed_field: str) -> float:
+    """Duration (s) of a loading stage that moves ``distance`` (m, ``None`` or 0: no stage) at
+    ``speed`` (m/s): ``distance / speed``.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``distance_field`` for a negative or non-finite distance, ``speed_field`` for a
+        speed that is not positive.
+    """
+    d = float(distance or 0.0)
+    if d < 0 or not math.isfinite(d):
+        raise ConfigError(distance_field, f"must be a distance >= 0 in m, got {d!r}")
+    if d == 0:
+        return 0.0
+    v = float(speed)
+    if not v > 0:
+        raise ConfigError(speed_field, f"must be a speed > 0 in m/s, got {v!r}")
+    return d / v
+
+
 def end_group_nodes(node: int, n_nodes: int, count: int = 2) -> list[int]:
     """Local node indices of the ``count`` nodes at the end of a rope where ``node`` (0 or N-1) is."""
     if node == 0:

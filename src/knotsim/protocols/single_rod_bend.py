@@ -39,7 +39,7 @@ import math
 import numpy as np
 
 from knotsim.errors import ConfigError
-from knotsim.protocols.base import Protocol, RunContext, register, unit
+from knotsim.protocols.base import Protocol, RunContext, register, stage_duration, unit
 from knotsim.protocols.metrics import moving_average, slip_onset, window_mean, window_peak
 
 #: Times (s) at which F h^2/EI was read off the published figure.
@@ -47,23 +47,11 @@ REPORT_TIMES = (2.5, 5.0, 7.5, 10.0, 12.5)
 
 
 def pre_pull_time(params) -> float:
-    """Duration (s) of the pre-tightening: ``pre_pull / (2 pre_pull_speed)`` (0 when off).
-
-    Raises
-    ------
-    ConfigError
-        For a negative ``pre_pull`` or a non-positive speed.
-    """
-    p = float(params["pre_pull"] or 0.0)
-    if p < 0 or not math.isfinite(p):
-        raise ConfigError("pre_pull", f"must be a separation >= 0 in m, got {p!r}")
-    if p == 0:
-        return 0.0
+    """Duration (s) of the pre-tightening: ``pre_pull / (2 pre_pull_speed)`` (0 when off; the speed
+    defaults to ``pull_speed``; see :func:`~knotsim.protocols.base.stage_duration` for the errors)."""
     v = params["pre_pull_speed"]
-    v = float(params["pull_speed"] if v is None else v)
-    if not v > 0:
-        raise ConfigError("pre_pull_speed", f"must be a speed > 0 in m/s, got {v!r}")
-    return p / (2.0 * v)
+    v = params["pull_speed"] if v is None else v
+    return 0.5 * stage_duration(params["pre_pull"], v, "pre_pull", "pre_pull_speed")
 
 
 class SingleRodBend(Protocol):

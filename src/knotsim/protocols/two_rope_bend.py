@@ -65,7 +65,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from knotsim.errors import ConfigError
-from knotsim.protocols.base import Protocol, RunContext, end_group_nodes, register, unit
+from knotsim.protocols.base import Protocol, RunContext, end_group_nodes, register, stage_duration, unit
 from knotsim.protocols.metrics import (
     draw_in_onset,
     moving_average,
@@ -213,22 +213,9 @@ def ends_interleaved(ropes: list[np.ndarray], standing: list[tuple[int, int]]) -
 
 
 def pre_tighten_time(params) -> float:
-    """Duration (s) of the cinching stage, ``pre_tighten / pre_tighten_speed`` (0 when off).
-
-    Raises
-    ------
-    ConfigError
-        For a negative ``pre_tighten`` or a non-positive speed.
-    """
-    p = float(params["pre_tighten"] or 0.0)
-    if p < 0 or not np.isfinite(p):
-        raise ConfigError("pre_tighten", f"must be a distance >= 0 in m, got {p!r}")
-    if p == 0:
-        return 0.0
-    v = float(params["pre_tighten_speed"])
-    if not v > 0:
-        raise ConfigError("pre_tighten_speed", f"must be a speed > 0 in m/s, got {v!r}")
-    return p / v
+    """Duration (s) of the cinching stage, ``pre_tighten / pre_tighten_speed`` (0 when off; see
+    :func:`~knotsim.protocols.base.stage_duration` for the errors)."""
+    return stage_duration(params["pre_tighten"], params["pre_tighten_speed"], "pre_tighten", "pre_tighten_speed")
 
 
 class TwoRopeBend(Protocol):
