@@ -302,3 +302,33 @@ def test_finely_meshed_straight_rod_has_no_self_contact():
     energy, _ = ci.evaluate(st.q, st.q, 1e-3, r, True)
     assert energy == 0.0 and np.all(r == 0.0)
     assert ci.pairs.shape[0] == 0 or np.all(np.abs(np.diff(ci.pairs, axis=1)) >= 7)
+
+
+def test_describe_near_names_pair_gap_and_angle():
+    """The failure diagnosis names the closest pair at a node, its gap and the angle between its
+    edges, and flags nearly parallel edges (the kink of the edge-edge energy)."""
+    import numpy as np
+
+    from knotsim.contact.model import ContactInteraction, ContactSettings
+    from knotsim.rods import Model, RodSpec
+    from knotsim.solver.state import initial_state
+
+    def rod(points, name):
+        return RodSpec(np.asarray(points, float), radius=1.6e-3, youngs_modulus=0.18e6, density=1180.0, name=name)
+
+    xs = np.linspace(0.0, 0.1, 11)
+    base = rod([[x, 0.0, 0.0] for x in xs], "a")
+    parallel = rod([[x, 0.0, 3.3e-3] for x in xs], "b")
+    crossing = rod([[0.05, -0.05 + 0.01 * k, 3.3e-3] for k in range(11)], "c")
+    for other, parallel_expected in ((parallel, True), (crossing, False)):
+        m = Model([base, other])
+        contact = ContactInteraction(m, ContactSettings())
+        state = initial_state(m)
+        contact.begin_step(state, 1e-3)
+        text = contact.describe_near(state.q, 5)
+        assert "gap of" in text and "deg apart" in text, text
+        assert ("nearly parallel" in text) is parallel_expected, text
+        angle = float(text.split("(")[1].split(" deg")[0])
+        assert angle == pytest.approx(0.0 if parallel_expected else 90.0, abs=1e-6)
+        if not parallel_expected:  # node 0 of rod a is 5 cm from the crossing rod: no candidate pair
+            assert contact.describe_near(state.q, 0) == ""

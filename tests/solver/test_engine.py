@@ -152,3 +152,22 @@ def test_impossible_case_raises_with_last_good_state():
     assert err.last_good_state is not None
     assert err.time == pytest.approx(0.01, abs=1e-9)
     assert np.all(np.isfinite(err.last_good_state.q))
+
+
+def test_failure_message_says_where_the_residual_is_largest():
+    """A failed solve names the rod and node of its largest residual (and, with contact, the nearest
+    contact pair and the angle between its edges)."""
+    from knotsim.contact.model import ContactInteraction, ContactSettings
+
+    cross = RodSpec(np.array([[0.1, -0.1 + 0.01 * k, 3.3e-3] for k in range(21)]), radius=1.6e-3,
+                    youngs_modulus=0.18e6, density=1180.0, name="cross")
+    m = Model([straight(n=21), cross])
+    bcs = BoundaryConditions(m)
+    bcs.clamp("left", rod=0, nodes=[0, 1])
+    bcs.move("yank", rod=0, nodes=[-2, -1], path=lambda t: [0.0, 0.0, 1.0 if t > 0.01 else 0.0])
+    contact = ContactInteraction(m, ContactSettings(mu=0.3))
+    sim = Simulation(m, bcs, SolverSettings(dt=5e-3, dt_min=5e-3 / 4, max_iterations=3), interactions=[contact])
+    with pytest.raises(SimulationError) as info:
+        sim.run(0.05, progress=False)
+    msg = str(info.value)
+    assert "largest residual" in msg and "at rod" in msg and ("node" in msg or "edge" in msg), msg

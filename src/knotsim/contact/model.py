@@ -363,6 +363,41 @@ class ContactInteraction:
                         f"penetration_limit {s.penetration_limit}")
         return None
 
+    def describe_near(self, q, node: int) -> str:
+        """Text naming a candidate pair that has ``node`` (global node number) on one of its edges
+        (a nearly parallel pair in contact if there is one, else the closest pair): its edges, gap
+        ``Δ − d`` (m) and the angle between the edges (degrees); "" if none. Used in the message of a
+        failed step."""
+        m = self.model
+        k = self.pair_dofs.shape[0]
+        if not k:
+            return ""
+        dof = int(m.node_dof[node])
+        has = np.flatnonzero(np.any(self.pair_dofs == dof, axis=1))
+        if not has.size:
+            return ""
+        ev = self._evaluated_at(q)
+        gaps = ev.delta[has] - self.pair_d[has]
+
+        def angle_of(p: int) -> float:
+            x = q[self.pair_dofs[p]].reshape(4, 3)
+            e1, e2 = x[1] - x[0], x[3] - x[2]
+            c = abs(float(np.dot(e1, e2))) / max(float(np.linalg.norm(e1) * np.linalg.norm(e2)), 1e-300)
+            return math.degrees(math.acos(min(1.0, c)))
+
+        # a nearly parallel pair in contact is the likely culprit; otherwise the closest pair
+        touching = [int(p) for p, g in zip(has, gaps, strict=True) if g < self.settings.delta]
+        parallel = [p for p in touching if angle_of(p) < 1.0]
+        p = parallel[0] if parallel else int(has[np.argmin(gaps)])
+        angle = angle_of(p)
+        a, b = (int(v) for v in self.pairs[p])
+        text = (f"in contact with a gap of {ev.delta[p] - self.pair_d[p]:.3g} m between edges {a} and {b} "
+                f"({angle:.3g} deg apart)")
+        if angle < 1.0:
+            text += ("; nearly parallel edges in contact: the edge-edge contact energy has a kink there "
+                     "(see docs/performance.md)")
+        return text
+
     def _compute_stats(self, ev: _Eval) -> None:
         m = self.model
         k = self.pair_dofs.shape[0]

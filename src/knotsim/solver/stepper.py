@@ -352,6 +352,38 @@ class Stepper:
             self.factorizations += 1
         return self._active.solve(rhs)
 
+    def _where(self, system: _StepSystem, q: np.ndarray) -> str:
+        """Where the residual of a failed solve is largest: ``"; largest residual ... at rod R node K"``
+        (or edge K's twist), and the nearest contact pair with the angle between its edges, so that a
+        stall can be traced (one extra residual evaluation, only on failure)."""
+        m = self.model
+        try:
+            r = system.residual(q, False)
+        except Exception:  # the diagnosis must not hide the failure
+            return ""
+        if not np.all(np.isfinite(r)) or not r.size:
+            return ""
+        k = int(np.argmax(np.abs(r)))
+        if m.theta_mask[k]:
+            e = int(np.flatnonzero(m.edge_theta_dof == k)[0])
+            rod = int(m.edge_rod[e])
+            where = f"edge {int(m.edge_local[e])} (twist)"
+            unit = "N m"
+            node = None
+        else:
+            node = int(np.searchsorted(m.node_dof, k, side="right") - 1)
+            rod = int(np.searchsorted(m.rod_node_start, node, side="right") - 1)
+            where = f"node {node - int(m.rod_node_start[rod])}"
+            unit = "N"
+        out = f"; largest residual {abs(r[k]):.3g} {unit} at rod {m.rod_names[rod]!r} {where}"
+        for inter in self.interactions:
+            describe = getattr(inter, "describe_near", None)
+            if node is not None and describe is not None:
+                text = describe(q, node)
+                if text:
+                    out += f", {text}"
+        return out
+
     def store_configuration(self, state: State, q: np.ndarray, source: FrameSource) -> None:
         """Set ``state.q`` to ``q`` with its tangents, reference directors and reference twist
         (transported from ``source``; recomputed, since the last evaluation may have been a
@@ -395,7 +427,7 @@ class Stepper:
         except LinearSolveError as exc:
             raise StepFailure(str(exc)) from exc
         if not res.converged:
-            raise StepFailure(res.reason)
+            raise StepFailure(f"{res.reason}{self._where(system, res.q)}")
         for inter in self.interactions:
             reason = inter.check(res.q)
             if reason:
