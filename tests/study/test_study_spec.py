@@ -115,3 +115,28 @@ def test_toml_writer_round_trip():
     doc = study(grid={"rods[0].youngs_modulus": [1e6, 1e7]}, zip=[{"solver.dt": [1e-2, 5e-3]}],
                 cases=[{"model.damping": 0.0}])
     assert tomllib.loads(dumps_toml(doc)) == doc
+
+
+def test_shipped_study_files_expand_to_valid_cases():
+    """Every study file in examples/studies/ loads, expands, and each protocol case names a known
+    protocol and knot and only parameters that protocol accepts (a typo fails here, not hours into
+    a study)."""
+    from pathlib import Path
+
+    from knotsim.knots.library import load_knot_spec
+    from knotsim.protocols import get_protocol
+    from knotsim.protocols.base import COMMON_DEFAULTS, resolve_params
+    from knotsim.study.spec import load_study_spec
+
+    files = sorted((Path(__file__).resolve().parents[2] / "examples" / "studies").glob("*.toml"))
+    assert len(files) >= 6
+    for f in files:
+        cases = load_study_spec(f).expand()
+        assert cases, f
+        for c in cases:
+            if c.kind != "protocol":
+                continue
+            proto = get_protocol(c.config["protocol"])
+            load_knot_spec(c.config.get("knot") or proto.default_knot)
+            defaults = {**COMMON_DEFAULTS, **proto.defaults}
+            resolve_params(defaults, c.config.get("overrides") or {})
