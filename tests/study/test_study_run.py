@@ -275,3 +275,36 @@ def test_report_plot_metrics_option(local_run, tmp_path):
     res = CliRunner().invoke(report, [str(out0), "--metric", "no_such_metric"])
     assert res.exit_code == 2 and "no_such_metric" in res.output
     assert sorted(p.name for p in (out0 / "report_figures").glob("*.png")) == figs
+
+
+def test_report_traction_time_is_pull_time_after_pre_pull(tmp_path, monkeypatch):
+    """With a pre-tightening (metric pre_pull_time) the MAE259B traction plot shows the 13 s window
+    only, timed from its start."""
+    import numpy as np
+
+    import knotsim.study.report as R
+
+    raw = {"name": "mae", "base": {"protocol": "single-rod-bend", "knot": "single_rod_reef", "overrides": {}},
+           "grid": {"knot": ["single_rod_granny", "single_rod_reef"], "overrides.mu": [0.1, 0.5]}}
+    _synthetic_study(tmp_path, raw, lambda p: {"F_norm_mean": p["overrides.mu"], "pre_pull_time": 5.0,
+                                               "knot_kind": "single_rod_bend"})
+    drawn = []
+    real_figure = R._figure
+
+    def figure():
+        fig, ax = real_figure()
+        orig = ax.plot
+
+        def plot(x, *a, **k):
+            drawn.append(np.asarray(x, float))
+            return orig(x, *a, **k)
+
+        ax.plot = plot
+        return fig, ax
+
+    monkeypatch.setattr(R, "_figure", figure)
+    R.write_report(tmp_path)
+    series = [x for x in drawn if x.size > 5]  # the traction series, not the 5-point mean-vs-mu lines
+    assert len(series) == 4
+    for x in series:  # the synthetic logs run 0..13 s: after a 5 s pre-pull, 0..8 s of window
+        assert x[0] >= -1e-9 and x[-1] == pytest.approx(8.0)

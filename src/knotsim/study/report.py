@@ -205,7 +205,12 @@ def _mae259b(study_dir: Path, df, params, figdir: Path) -> list[str]:
             series = _traction_series(study_dir, sel.iloc[0])
             if series is None:
                 continue
-            ax.plot(series[0], series[1], ls, color=styles[k], label=f"{k}, μ = {m:g}")
+            t, f = series
+            t_pre = sel.iloc[0].get("pre_pull_time") if "pre_pull_time" in sel.columns else None
+            if t_pre is not None and np.isfinite(float(t_pre)) and float(t_pre) > 0:
+                keep = t >= float(t_pre) - 1e-9  # the pull window only, timed from its start
+                t, f = t[keep] - float(t_pre), f[keep]
+            ax.plot(t, f, ls, color=styles[k], label=f"{k}, μ = {m:g}")
             drawn += 1
     if drawn:
         ax.set_xlabel("pull time t (s)")
