@@ -119,14 +119,16 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
             merit_q = system.merit
             q_try = q + dq
             r_try = system.residual(q_try, True)
+            n_try = norm2(r_try)
             cuts = 0
-            while norm2(r_try) > (1.0 - 1e-4 * a) * n0 and cuts < safeguard_cuts:
+            while n_try > (1.0 - 1e-4 * a) * n0 and cuts < safeguard_cuts:
                 a *= 0.5
                 cuts += 1
                 q_try = q + a * dq
                 r_try = system.residual(q_try, False)
+                n_try = norm2(r_try)
             cuts_total += cuts
-            if norm2(r_try) <= (1.0 - 1e-4 * a) * n0:
+            if n_try <= (1.0 - 1e-4 * a) * n0:
                 if cuts:
                     r_try = system.residual(q_try, True)
                 step = system.step_norm(a * dq)
