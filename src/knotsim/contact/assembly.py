@@ -17,6 +17,7 @@ from knotsim.contact.distance import (
 )
 from knotsim.contact.friction import friction_pair
 from knotsim.contact.potential import contact_pair_energy
+from knotsim.contact.regularized_distance import regularized_beta_gradients
 
 
 @njit(cache=True)
@@ -47,7 +48,7 @@ def pair_dofs_from_edges(pairs, edge_dofs):
 
 @njit(cache=True)
 def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
-                     blocks, pair_delta, pair_fc, pair_ff):
+                     blocks, pair_delta, pair_fc, pair_ff, eta=0.0):
     """Contact and friction of every candidate pair at the Newton iterate ``q``.
 
     Parameters
@@ -63,6 +64,8 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     pair_delta : (k,) float64 output, distance Δ (m) of every pair.
     pair_fc, pair_ff : (k, 12) float64 outputs, contact force ``−k_c ∇E`` and friction force (N) on
         the four nodes of every pair.
+    eta : parallel-edge regularization η of the distance (0: exact segment distance), see
+        :mod:`knotsim.contact.regularized_distance`.
 
     Returns
     -------
@@ -83,7 +86,7 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     for k in range(npair):
         for m in range(12):
             p[m] = q[pair_dofs[k, m]]
-        E, delta, bi, bj, case = contact_pair_energy(p, pair_d[k], tol, grad, hess)
+        E, delta, bi, bj, case = contact_pair_energy(p, pair_d[k], tol, grad, hess, eta)
         pair_delta[k] = delta
         if E <= 0.0:
             for m in range(12):
@@ -108,7 +111,10 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
                 for m in range(12):
                     for n in range(12):
                         dfc[m, n] = -kc * hess[m, n]
-                edge_edge_beta_gradients(p, bi, bj, case, dbi, dbj)
+                if eta > 0.0:
+                    regularized_beta_gradients(p, eta, bi, bj, case, dbi, dbj)
+                else:
+                    edge_edge_beta_gradients(p, bi, bj, case, dbi, dbj)
             friction_pair(p, pp, dt, mu, nu, fc, dfc, bi, bj, dbi, dbj, ffr, jfr, want_jacobian)
             for m in range(12):
                 pair_ff[k, m] = ffr[m]

@@ -91,7 +91,10 @@ class ContactSettings:
     - ``margin``: broad-phase cut-off margin (m), default 2e-3;
     - ``penetration_limit``: deepest accepted penetration as a fraction of the smaller radius of the
       pair (default 0.2); a deeper step is retried smaller;
-    - ``self_contact``: whether edges of the same rod touch (default True).
+    - ``self_contact``: whether edges of the same rod touch (default True);
+    - ``parallel_smoothing``: regularization η (dimensionless) of the edge–edge distance
+      (:mod:`knotsim.contact.regularized_distance`), which makes contact between (nearly) parallel
+      edges smooth; 0 uses the exact segment distance.
     """
 
     delta: float = 5e-4
@@ -104,6 +107,7 @@ class ContactSettings:
     margin: float = 2e-3
     penetration_limit: float = 0.2
     self_contact: bool = True
+    parallel_smoothing: float = 0.0
 
     def validate(self) -> None:
         """Raise :class:`ConfigError` naming the first bad field."""
@@ -128,6 +132,11 @@ class ContactSettings:
             self.stiffness_floor = _positive("stiffness_floor", self.stiffness_floor)
         self.margin = _positive("margin", self.margin, allow_zero=True)
         self.penetration_limit = _positive("penetration_limit", self.penetration_limit)
+        self.parallel_smoothing = _positive("parallel_smoothing", self.parallel_smoothing, allow_zero=True)
+        if self.parallel_smoothing > 0.1:
+            raise ConfigError("contact.parallel_smoothing",
+                              f"must be at most 0.1 (it biases the distance by about η × edge length² / (4 Δ)), "
+                              f"got {self.parallel_smoothing!r}; typical values are 1e-4 to 1e-2")
         if not isinstance(self.self_contact, bool | np.bool_):
             raise ConfigError("contact.self_contact", f"must be true or false, got {self.self_contact!r}")
 
@@ -318,7 +327,7 @@ class ContactInteraction:
         ev = _Eval(q.copy(), np.empty(k), np.empty((k, 12)), np.empty((k, 12)))
         e = contact_evaluate(q, q_prev, dt, self.pair_dofs, self.pair_d, self.pair_mu, self.settings.delta,
                              self.settings.nu, self.k_c, residual, bool(want_jacobian), self._blocks, ev.delta,
-                             ev.fc, ev.ff)
+                             ev.fc, ev.ff, self.settings.parallel_smoothing)
         self._last = ev
         self._q_prev = q_prev
         self._dt = dt

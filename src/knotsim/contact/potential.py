@@ -32,6 +32,7 @@ import math
 from numba import njit
 
 from knotsim.contact.distance import edge_edge_distance, edge_edge_distance_derivatives
+from knotsim.contact.regularized_distance import regularized_distance, regularized_distance_derivatives
 
 #: K1 = IMC_SHARPNESS / δ.
 IMC_SHARPNESS = 15.0
@@ -81,7 +82,7 @@ def imc_energy_derivatives(delta, d, tol):
 
 
 @njit(cache=True)
-def contact_pair_energy(p, d, tol, grad, hess):
+def contact_pair_energy(p, d, tol, grad, hess, eta=0.0):
     """IMC energy of one edge pair and its derivatives with respect to the 12 node coordinates.
 
     Parameters
@@ -91,21 +92,31 @@ def contact_pair_energy(p, d, tol, grad, hess):
     tol : distance tolerance δ (m).
     grad : (12,) float64 output, ``∇_p E`` (m).
     hess : (12, 12) float64 output, ``∇²_p E`` (dimensionless), ``E'' ∇Δ∇Δᵀ + E' ∇²Δ``.
+    eta : parallel-edge regularization η of the distance (dimensionless): 0 uses the exact segment
+        distance (:mod:`knotsim.contact.distance`), η > 0 the regularized one
+        (:mod:`knotsim.contact.regularized_distance`).
 
     Returns
     -------
     ``(E, delta, beta_i, beta_j, case)``: energy (m²) and the distance data of
-    :func:`knotsim.contact.distance.edge_edge_distance`. For ``Δ ≥ d + δ`` the energy, gradient and
-    Hessian are zero.
+    :func:`knotsim.contact.distance.edge_edge_distance` (or of
+    :func:`~knotsim.contact.regularized_distance.regularized_distance` for η > 0). For ``Δ ≥ d + δ``
+    the energy, gradient and Hessian are zero.
     """
-    delta, bi, bj, case = edge_edge_distance(p)
+    if eta > 0.0:
+        delta, bi, bj, case = regularized_distance(p, eta)
+    else:
+        delta, bi, bj, case = edge_edge_distance(p)
     if delta >= d + tol:
         for k in range(12):
             grad[k] = 0.0
             for l in range(12):
                 hess[k, l] = 0.0
         return 0.0, delta, bi, bj, case
-    edge_edge_distance_derivatives(p, grad, hess)
+    if eta > 0.0:
+        regularized_distance_derivatives(p, eta, grad, hess)
+    else:
+        edge_edge_distance_derivatives(p, grad, hess)
     E, dE, d2E = imc_energy_derivatives(delta, d, tol)
     for k in range(12):
         gk = d2E * grad[k]
