@@ -13,7 +13,13 @@ import numpy as np
 import pytest
 from scipy.optimize import lsq_linear
 
-from knotsim.contact.distance import CASE_EE, CASE_EP_0, CASE_PE_0, edge_edge_distance, edge_edge_distance_derivatives
+from knotsim.contact.distance import (
+    CASE_EE,
+    CASE_EP_0,
+    CASE_PE_0,
+    edge_edge_distance,
+    edge_edge_distance_derivatives,
+)
 from knotsim.contact.regularized_distance import (
     regularized_beta_gradients,
     regularized_distance,
