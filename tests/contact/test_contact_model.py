@@ -137,11 +137,72 @@ def test_parallel_rods_with_parallel_smoothing_match_fd(mu, angle):
     dt = 1e-3
     q_prev = st.q.copy()
     q_prev[m.node_dof[m.rod_node_start[1]:]] -= 3e-5 * dt
-    settings = ContactSettings(stiffness_mode="constant", stiffness=50.0, mu=mu, parallel_smoothing=1e-3)
+    settings = ContactSettings(stiffness_mode="constant", stiffness=50.0, mu=mu, parallel_smoothing=2e-6)
     ci, _ = prepared(m, settings)
     r0, err, scale = fd_check(ci, st.q, q_prev, dt, h=1e-11 if mu else H)
     assert np.count_nonzero(ci._last.delta < 2 * R + settings.delta) >= 4  # several parallel pairs in contact
     assert err <= RTOL * scale, (err, scale)
+
+
+def test_parallel_smoothing_per_pair_eta_and_zero_is_exact():
+    """η of a pair is 8 d ℓ / (l̄_a² + l̄_b²); ℓ = 0 gives the exact segment distance."""
+    m = two_rods(1.95e-3, angle=0.0)
+    st = initial_state(m)
+    ci, _ = prepared(m, ContactSettings(parallel_smoothing=3e-6))
+    la = m.rest_length[ci.pairs[:, 0]]
+    lb = m.rest_length[ci.pairs[:, 1]]
+    np.testing.assert_allclose(ci.pair_eta, 8 * ci.pair_d * 3e-6 / (la**2 + lb**2))
+    r = np.zeros(m.n_dofs)
+    ci.evaluate(st.q, st.q, 1e-3, r, False)
+    exact = np.array([edge_edge_distance(st.q[d])[0] for d in ci.pair_dofs])
+    bias = ci._last.delta - exact
+    assert np.all(bias >= -1e-15) and np.all(bias <= 3e-6 * ci.pair_d / exact * (1 + 1e-9)) and bias.max() > 1e-8
+    ci0, _ = prepared(m, ContactSettings(parallel_smoothing=0.0))
+    assert not ci0.pair_eta.any()
+    ci0.evaluate(st.q, st.q, 1e-3, r, False)
+    np.testing.assert_array_equal(ci0._last.delta, exact)
+
+
+def _pair(x0, x1, x2, x3):
+    return np.concatenate([x0, x1, x2, x3]).astype(float)
+
+
+def test_first_side_flip_detects_pass_through_only():
+    from knotsim.contact.assembly import first_side_flip
+
+    dofs = np.arange(12)[None, :]
+    reach = np.array([2.5e-3])
+    a0, a1 = np.array([-5e-3, 0, 0]), np.array([5e-3, 0, 0])
+    b0, b1 = np.array([0, -5e-3, 2e-3]), np.array([0, 5e-3, 2e-3])
+    start = _pair(a0, a1, b0, b1)
+    # edge j jumps from 2 mm above edge i to 2 mm below it within one step: a pass-through
+    through = _pair(a0, a1, b0 - [0, 0, 4e-3], b1 - [0, 0, 4e-3])
+    k, cos = first_side_flip(start, through, dofs, reach)
+    assert k == 0 and cos == pytest.approx(-1.0)
+    # pressed closer, slid along, turned through parallel, or moved off the end: no flip
+    for end in (_pair(a0, a1, b0 - [0, 0, 5e-4], b1 - [0, 0, 5e-4]),
+                _pair(a0, a1, b0 + [1e-3, 0, 0], b1 + [1e-3, 0, 0]),
+                _pair(a0, a1, [-5e-3, 1e-4, 2e-3], [5e-3, -1e-4, 2e-3]),
+                _pair(a0, a1, b0 + [6e-3, 0, 0], b1 + [6e-3, 0, 0])):
+        assert first_side_flip(start, end, dofs, reach)[0] == -1
+    # far apart at both ends of the step: not checked
+    far = _pair(a0, a1, b0 + [0, 0, 1e-2], b1 + [0, 0, 1e-2])
+    assert first_side_flip(far, far - np.r_[np.zeros(6), [0, 0, 2e-2] * 2], dofs, reach)[0] == -1
+
+
+def test_check_rejects_pass_through():
+    m = two_rods(2.1e-3)
+    ci, st = prepared(m, ContactSettings())
+    q_prev = st.q.copy()
+    q = st.q.copy()
+    nb = m.node_dof[m.rod_node_start[1]:]
+    q[nb + 2] -= 4.2e-3  # rod B moved from 2.1 mm above rod A to 2.1 mm below it
+    r = np.zeros(m.n_dofs)
+    ci.evaluate(q, q_prev, 1e-3, r, False)
+    msg = ci.check(q)
+    assert msg is not None and "pass-through" in msg and "changed sides" in msg
+    ci.evaluate(q_prev, q_prev, 1e-3, r, False)
+    assert ci.check(q_prev) is None
 
 
 def test_energy_consistent_with_gradient():

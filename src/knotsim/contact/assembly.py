@@ -48,7 +48,7 @@ def pair_dofs_from_edges(pairs, edge_dofs):
 
 @njit(cache=True)
 def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
-                     blocks, pair_delta, pair_fc, pair_ff, eta=0.0):
+                     blocks, pair_delta, pair_fc, pair_ff, pair_eta):
     """Contact and friction of every candidate pair at the Newton iterate ``q``.
 
     Parameters
@@ -64,8 +64,8 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     pair_delta : (k,) float64 output, distance Δ (m) of every pair.
     pair_fc, pair_ff : (k, 12) float64 outputs, contact force ``−k_c ∇E`` and friction force (N) on
         the four nodes of every pair.
-    eta : parallel-edge regularization η of the distance (0: exact segment distance), see
-        :mod:`knotsim.contact.regularized_distance`.
+    pair_eta : (k,) float64, parallel-edge regularization η of every pair's distance (0: exact
+        segment distance), see :mod:`knotsim.contact.regularized_distance`.
 
     Returns
     -------
@@ -86,6 +86,7 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     for k in range(npair):
         for m in range(12):
             p[m] = q[pair_dofs[k, m]]
+        eta = pair_eta[k]
         E, delta, bi, bj, case = contact_pair_energy(p, pair_d[k], tol, grad, hess, eta)
         pair_delta[k] = delta
         if E <= 0.0:
@@ -142,6 +143,42 @@ def pair_distances(q, pair_dofs, out):
             p[m] = q[pair_dofs[k, m]]
         delta, _, _, _ = edge_edge_distance(p)
         out[k] = delta
+
+
+@njit(cache=True)
+def first_side_flip(q_start, q_end, pair_dofs, reach):
+    """First pair whose edges changed sides during a step: a rope passing through another.
+
+    For every pair closer than ``reach[k]`` (m) at the start or the end of the step, the vector
+    between the closest points (edge j to edge i, exact segment distance) at ``q_start`` and at
+    ``q_end`` is compared; if it turned by more than 90° (negative dot product) the edges swapped
+    sides. Without a pass-through that needs a relative motion of about the distance between the
+    edges within one step, itself a step too large to trust.
+
+    Returns ``(k, cos)``: the pair index (−1 if none) and the cosine of the turning angle.
+    """
+    p = np.empty(12)
+    for k in range(pair_dofs.shape[0]):
+        for m in range(12):
+            p[m] = q_start[pair_dofs[k, m]]
+        d0, bi0, bj0, _ = edge_edge_distance(p)
+        v0x = (1.0 - bi0) * p[0] + bi0 * p[3] - (1.0 - bj0) * p[6] - bj0 * p[9]
+        v0y = (1.0 - bi0) * p[1] + bi0 * p[4] - (1.0 - bj0) * p[7] - bj0 * p[10]
+        v0z = (1.0 - bi0) * p[2] + bi0 * p[5] - (1.0 - bj0) * p[8] - bj0 * p[11]
+        for m in range(12):
+            p[m] = q_end[pair_dofs[k, m]]
+        d1, bi1, bj1, _ = edge_edge_distance(p)
+        if d0 >= reach[k] and d1 >= reach[k]:
+            continue
+        if not (d0 > 0.0 and d1 > 0.0):
+            continue
+        v1x = (1.0 - bi1) * p[0] + bi1 * p[3] - (1.0 - bj1) * p[6] - bj1 * p[9]
+        v1y = (1.0 - bi1) * p[1] + bi1 * p[4] - (1.0 - bj1) * p[7] - bj1 * p[10]
+        v1z = (1.0 - bi1) * p[2] + bi1 * p[5] - (1.0 - bj1) * p[8] - bj1 * p[11]
+        c = (v0x * v1x + v0y * v1y + v0z * v1z) / (d0 * d1)
+        if c < 0.0:
+            return k, c
+    return -1, 1.0
 
 
 @njit(cache=True)

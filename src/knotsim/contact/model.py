@@ -48,6 +48,7 @@ import numpy as np
 from knotsim.contact.assembly import (
     approach_forces,
     contact_evaluate,
+    first_side_flip,
     nodal_force_summary,
     pair_dofs_from_edges,
 )
@@ -92,9 +93,13 @@ class ContactSettings:
     - ``penetration_limit``: deepest accepted penetration as a fraction of the smaller radius of the
       pair (default 0.2); a deeper step is retried smaller;
     - ``self_contact``: whether edges of the same rod touch (default True);
-    - ``parallel_smoothing``: regularization η (dimensionless) of the edge–edge distance
-      (:mod:`knotsim.contact.regularized_distance`), which makes contact between (nearly) parallel
-      edges smooth; 0 uses the exact segment distance.
+    - ``parallel_smoothing``: length ℓ (m) of the regularization of the edge–edge distance
+      (:mod:`knotsim.contact.regularized_distance`) that makes contact between (nearly) parallel
+      edges smooth, default 2e-6. Each pair gets ``η = 8 d ℓ / (l̄_a² + l̄_b²)`` (``d`` its contact
+      distance, ``l̄`` the rest lengths of its edges), so that the regularized distance Δ exceeds the
+      exact one by at most ``ℓ d / Δ`` (at unstretched edges), and the contact point of two parallel edges moves from the
+      middle of their overlap to its end over node motions of about 4ℓ, whatever the mesh. 0 uses
+      the exact segment distance, whose force jumps between the nodes of parallel edges.
     """
 
     delta: float = 5e-4
@@ -107,7 +112,7 @@ class ContactSettings:
     margin: float = 2e-3
     penetration_limit: float = 0.2
     self_contact: bool = True
-    parallel_smoothing: float = 0.0
+    parallel_smoothing: float = 2e-6
 
     def validate(self) -> None:
         """Raise :class:`ConfigError` naming the first bad field."""
@@ -133,10 +138,11 @@ class ContactSettings:
         self.margin = _positive("margin", self.margin, allow_zero=True)
         self.penetration_limit = _positive("penetration_limit", self.penetration_limit)
         self.parallel_smoothing = _positive("parallel_smoothing", self.parallel_smoothing, allow_zero=True)
-        if self.parallel_smoothing > 0.1:
+        if self.parallel_smoothing > 0.1 * self.delta:
             raise ConfigError("contact.parallel_smoothing",
-                              f"must be at most 0.1 (it biases the distance by about η × edge length² / (4 Δ)), "
-                              f"got {self.parallel_smoothing!r}; typical values are 1e-4 to 1e-2")
+                              f"must be at most 0.1 delta = {0.1 * self.delta:g} m (it is the largest increase of "
+                              f"the contact distance it causes), got {self.parallel_smoothing!r}; "
+                              f"typical values are 1e-6 to 1e-5 m")
         if not isinstance(self.self_contact, bool | np.bool_):
             raise ConfigError("contact.self_contact", f"must be true or false, got {self.self_contact!r}")
 
@@ -307,6 +313,9 @@ class ContactInteraction:
         rb = m.edge_radius[pairs[:, 1]]
         self.pair_d = ra + rb
         self.pair_hmin = np.minimum(ra, rb)
+        la = m.rest_length[pairs[:, 0]]
+        lb = m.rest_length[pairs[:, 1]]
+        self.pair_eta = 8.0 * self.pair_d * self.settings.parallel_smoothing / (la * la + lb * lb)
         self.pair_mu = np.ascontiguousarray(self._mu_table[m.edge_rod[pairs[:, 0]], m.edge_rod[pairs[:, 1]]])
         self._pair_keys = pairs[:, 0] * m.n_edges + pairs[:, 1]
         self._blocks = np.zeros((pairs.shape[0], 12, 12))
@@ -327,7 +336,7 @@ class ContactInteraction:
         ev = _Eval(q.copy(), np.empty(k), np.empty((k, 12)), np.empty((k, 12)))
         e = contact_evaluate(q, q_prev, dt, self.pair_dofs, self.pair_d, self.pair_mu, self.settings.delta,
                              self.settings.nu, self.k_c, residual, bool(want_jacobian), self._blocks, ev.delta,
-                             ev.fc, ev.ff, self.settings.parallel_smoothing)
+                             ev.fc, ev.ff, self.pair_eta)
         self._last = ev
         self._q_prev = q_prev
         self._dt = dt
@@ -343,7 +352,9 @@ class ContactInteraction:
         return ev
 
     def check(self, q) -> str | None:
-        """Reject ``q`` if a pair penetrates deeper than the limit or the broad phase went stale."""
+        """Reject ``q`` if a pair penetrates deeper than the limit, if two edges within contact range
+        at the start or the end of the step changed sides during it (a rope passed through another,
+        :func:`~knotsim.contact.assembly.first_side_flip`), or if the broad phase went stale."""
         s = self.settings
         m = self.model
         k = self.pair_dofs.shape[0]
@@ -370,6 +381,13 @@ class ContactInteraction:
                 a, b = self.pairs[worst]
                 return (f"contact penetration {ratio[worst]:.3g} x radius between edges {a} and {b} exceeds "
                         f"penetration_limit {s.penetration_limit}")
+            if self._q_prev is not None and self._q_prev.shape == q.shape:
+                flip, cos = first_side_flip(self._q_prev, q, self.pair_dofs, self.pair_d + s.delta)
+                if flip >= 0:
+                    a, b = self.pairs[flip]
+                    angle = math.degrees(math.acos(max(-1.0, min(1.0, cos))))
+                    return (f"contact pass-through: edges {a} and {b} changed sides during the step (the "
+                            f"vector between their closest points turned by {angle:.0f} deg)")
         return None
 
     def describe_near(self, q, node: int) -> str:

@@ -38,7 +38,9 @@ Degenerate input: an edge with squared length at most
 :data:`~knotsim.contact.distance.TINY_DISTANCE` the derivatives are set to zero.
 
 Every kernel takes the 12 coordinates ``p = (x0, x1, x2, x3)`` (m) as one flat float64 array, like
-:mod:`knotsim.contact.distance`, and ``eta > 0``.
+:mod:`knotsim.contact.distance`, and ``eta > 0``. :class:`~knotsim.contact.model.ContactSettings`
+sets ``η`` per pair from a length (``parallel_smoothing`` ℓ, default 2 µm):
+``η = 8 d ℓ / (l̄_a² + l̄_b²)``, so the bias is at most about ℓ on any mesh.
 """
 
 from __future__ import annotations
@@ -49,10 +51,6 @@ from numba import njit
 
 from knotsim import _vec3 as v3
 from knotsim.contact.distance import CASE_EE, CASE_EP_0, CASE_PE_0, MIN_LENGTH2, TINY_DISTANCE
-
-#: Default regularization η of :class:`~knotsim.contact.model.ContactSettings` (``parallel_smoothing``).
-DEFAULT_ETA = 1e-3
-
 
 @njit(inline="always", cache=True)
 def _clamp01(t):
