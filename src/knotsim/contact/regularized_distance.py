@@ -52,6 +52,7 @@ from numba import njit
 from knotsim import _vec3 as v3
 from knotsim.contact.distance import CASE_EE, CASE_EP_0, CASE_PE_0, MIN_LENGTH2, TINY_DISTANCE
 
+
 @njit(inline="always", cache=True)
 def _clamp01(t):
     if t <= 0.0:
