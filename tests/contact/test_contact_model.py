@@ -386,7 +386,7 @@ def test_finely_meshed_straight_rod_has_no_self_contact():
 
 def test_describe_near_names_pair_gap_and_angle():
     """The failure diagnosis names the closest pair at a node, its gap and the angle between its
-    edges, and flags nearly parallel edges (the kink of the edge-edge energy)."""
+    edges, and flags nearly parallel edges (where the exact edge-edge distance has a kink)."""
     import numpy as np
 
     from knotsim.contact.model import ContactInteraction, ContactSettings

@@ -421,8 +421,11 @@ class ContactInteraction:
         text = (f"in contact with a gap of {ev.delta[p] - self.pair_d[p]:.3g} m between edges {a} and {b} "
                 f"({angle:.3g} deg apart)")
         if angle < 1.0:
-            text += ("; nearly parallel edges in contact: the edge-edge contact energy has a kink there "
-                     "(see docs/performance.md)")
+            if self.settings.parallel_smoothing > 0.0:
+                text += "; nearly parallel edges in contact"
+            else:
+                text += ("; nearly parallel edges in contact: with contact.parallel_smoothing = 0 the edge-edge "
+                         "contact energy has a kink there (see docs/performance.md)")
         return text
 
     def _compute_stats(self, ev: _Eval) -> None:
