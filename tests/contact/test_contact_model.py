@@ -83,10 +83,11 @@ def prepared(model, settings, q=None, v=None, dt=1e-3):
     return ci, st
 
 
+@pytest.mark.parametrize("smoothing", [0.0, 2e-6])
 @pytest.mark.parametrize("z_gap", [1.9e-3, 2.2e-3, 1.7e-3])
-def test_contact_gradient_and_jacobian_match_fd_frictionless(z_gap):
+def test_contact_gradient_and_jacobian_match_fd_frictionless(z_gap, smoothing):
     m = two_rods(z_gap)
-    ci, st = prepared(m, ContactSettings(stiffness_mode="constant", stiffness=50.0))
+    ci, st = prepared(m, ContactSettings(stiffness_mode="constant", stiffness=50.0, parallel_smoothing=smoothing))
     assert ci.pairs.shape[0] >= 1
     q = st.q.copy()
     r0, err, scale = fd_check(ci, q, q, 1e-3)
@@ -97,9 +98,10 @@ def test_contact_gradient_and_jacobian_match_fd_frictionless(z_gap):
     assert edge_edge_distance(p)[3] == CASE_EE
 
 
+@pytest.mark.parametrize("smoothing", [0.0, 2e-6])
 @pytest.mark.parametrize("speed", [3e-3, 3e-5, 0.0])
 @pytest.mark.parametrize("z_gap", [1.9e-3, 2.2e-3])
-def test_contact_with_friction_matches_fd(speed, z_gap):
+def test_contact_with_friction_matches_fd(speed, z_gap, smoothing):
     m = two_rods(z_gap, tilt=0.2)
     rng = np.random.default_rng(1)
     st = initial_state(m)
@@ -109,7 +111,7 @@ def test_contact_with_friction_matches_fd(speed, z_gap):
     nb = m.node_dof[m.rod_node_start[1]:]
     q_prev[nb] -= speed * dt
     q_prev[m.node_dof] += 0.1 * speed * dt * rng.standard_normal(m.n_nodes)
-    settings = ContactSettings(stiffness_mode="constant", stiffness=50.0, mu=0.4)
+    settings = ContactSettings(stiffness_mode="constant", stiffness=50.0, mu=0.4, parallel_smoothing=smoothing)
     ci, _ = prepared(m, settings)
     r0, err, scale = fd_check(ci, st.q, q_prev, dt, h=1e-11)
     assert err <= RTOL * scale, (err, scale)
@@ -117,7 +119,7 @@ def test_contact_with_friction_matches_fd(speed, z_gap):
     if speed > 0:
         assert np.any(ff != 0.0)
     # with mu = 0 the friction part vanishes and the residual is the gradient of the energy
-    ci0, _ = prepared(m, ContactSettings(stiffness_mode="constant", stiffness=50.0))
+    ci0, _ = prepared(m, ContactSettings(stiffness_mode="constant", stiffness=50.0, parallel_smoothing=smoothing))
     r1 = np.zeros(m.n_dofs)
     ci0.evaluate(st.q, q_prev, dt, r1, False)
     r2 = np.zeros(m.n_dofs)

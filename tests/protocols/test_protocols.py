@@ -167,6 +167,25 @@ def test_single_rod_hold_nodes(tmp_path):
         run_protocol("single-rod-bend", "single_rod_reef", quick=True, overrides={"hold_nodes": 2})
 
 
+@pytest.mark.parametrize("end_twist", ["clamped", "free"])
+def test_single_rod_end_twist(tmp_path, end_twist):
+    """``end_twist``: the pulled end edges keep their angle ("clamped") or twist ("free")."""
+    from knotsim.io.trajectory import read_trajectory
+
+    s = run_protocol("single-rod-bend", "single_rod_granny", out_dir=tmp_path, quick=True,
+                     overrides={"end_twist": end_twist, "duration": 0.5, "output_interval": 0.25})
+    assert s["run_status"] == "completed"
+    tr = read_trajectory(tmp_path / "trajectory.h5")
+    a0, a1 = (tr.rod_edge_angles(k, 0) for k in (0, tr.n_frames - 1))
+    ends = np.abs(a1[[0, -1]] - a0[[0, -1]])
+    if end_twist == "clamped":
+        assert np.all(ends == 0.0)
+    else:
+        assert np.all(ends > 1e-9)
+    with pytest.raises(ConfigError, match="end_twist"):
+        run_protocol("single-rod-bend", "single_rod_reef", quick=True, overrides={"end_twist": "loose"})
+
+
 def test_two_rope_bend_cinching_stage(tmp_path):
     """``pre_tighten``: all four ends move outwards by the given distance, then the tails are free."""
     from knotsim.io.trajectory import read_trajectory

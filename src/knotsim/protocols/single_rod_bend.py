@@ -2,8 +2,9 @@
 
 One rod (``E = 0.18 MPa``, ``h = 2 mm``, ``L = 1 m``, ``rho = 1180 kg/m^3``, ``N = 301``,
 ``dt = 2.5 ms``, contact ``delta = 5e-4 m``, ``nu = 1e-4 m/s``, default ``mu = 0.1``) tied as
-``single_rod_reef`` or ``single_rod_granny``. The two end nodes at each end (and their edge angle)
-are clamped and moved apart along the initial end-to-end axis (horizontal in the drawing) at
+``single_rod_reef`` or ``single_rod_granny``. The two end nodes at each end (and, with
+``end_twist = "clamped"``, the default, their edge angle; ``"free"`` lets the end edges twist: the
+report does not say) are clamped and moved apart along the initial end-to-end axis (horizontal in the drawing) at
 ``pull_speed`` per end (10 mm/s: the printed 10 cm/s cannot be right for 17 s of pulling a 1 m
 rod). The node given by the knot's ``held`` hint (the bottom of the first overhand) is held static
 (:meth:`~knotsim.bc.BoundaryConditions.hold`, positions only) for ``hold_time`` s (default
@@ -73,6 +74,7 @@ class SingleRodBend(Protocol):
         "hold_nodes": 1,        # consecutive nodes held, centred on the knot's hold hint (odd)
         "pre_pull": 0.0,        # m, end-to-end separation added before the measured pull (0: none)
         "pre_pull_speed": None,  # m/s per end during the pre-tightening (None: pull_speed)
+        "end_twist": "clamped",  # "clamped": the pulled end edges keep their angle; "free": they may twist
         "output_interval": 0.1,
     }
     fixed_geometry = ("n_nodes", "radius", "length")
@@ -82,6 +84,10 @@ class SingleRodBend(Protocol):
     def setup(self, ctx: RunContext) -> None:
         x = ctx.geometry.ropes[0]
         axis = unit(x[-1] - x[0])
+        twist = ctx.params["end_twist"]
+        if twist not in ("clamped", "free"):
+            raise ConfigError("end_twist", f"must be 'clamped' or 'free', got {twist!r}")
+        twist = twist == "clamped"
         ctx.data["axis"] = axis
         v = float(ctx.params["pull_speed"])
         t_pre = pre_pull_time(ctx.params)
@@ -93,11 +99,11 @@ class SingleRodBend(Protocol):
                 """Distance (m) one end has moved after ``t`` s: fast pre-tightening, then the pull."""
                 return v_pre * min(t, t_pre) + v * max(t - t_pre, 0.0)
 
-            ctx.bcs.move("pull_start", rod=0, nodes=[0, 1], path=lambda t: -travel(t) * axis)
-            ctx.bcs.move("pull_end", rod=0, nodes=[-2, -1], path=lambda t: travel(t) * axis)
+            ctx.bcs.move("pull_start", rod=0, nodes=[0, 1], path=lambda t: -travel(t) * axis, twist=twist)
+            ctx.bcs.move("pull_end", rod=0, nodes=[-2, -1], path=lambda t: travel(t) * axis, twist=twist)
         else:
-            ctx.bcs.move("pull_start", rod=0, nodes=[0, 1], path=list(-v * axis))
-            ctx.bcs.move("pull_end", rod=0, nodes=[-2, -1], path=list(v * axis))
+            ctx.bcs.move("pull_start", rod=0, nodes=[0, 1], path=list(-v * axis), twist=twist)
+            ctx.bcs.move("pull_end", rod=0, nodes=[-2, -1], path=list(v * axis), twist=twist)
         width = ctx.params["hold_nodes"]
         if not (isinstance(width, int) and width >= 1 and width % 2 == 1):
             raise ConfigError("hold_nodes", f"must be an odd number of nodes >= 1, got {width!r}")
