@@ -97,8 +97,9 @@ class ContactSettings:
       (:mod:`knotsim.contact.regularized_distance`) that makes contact between (nearly) parallel
       edges smooth, default 2e-6. Each pair gets ``η = 8 d ℓ / (l̄_a² + l̄_b²)`` (``d`` its contact
       distance, ``l̄`` the rest lengths of its edges), so that the regularized distance Δ exceeds the
-      exact one by at most ``ℓ d / Δ`` (at unstretched edges), and the contact point of two parallel edges moves from the
-      middle of their overlap to its end over node motions of about 4ℓ, whatever the mesh. 0 uses
+      exact one by at most ``ℓ d / Δ`` (at unstretched edges), and the contact point of two parallel
+      edges moves from the middle of their overlap to its end over node motions of about 4ℓ, whatever
+      the mesh. 0 uses
       the exact segment distance, whose force jumps between the nodes of parallel edges.
     """
 
@@ -352,8 +353,8 @@ class ContactInteraction:
         return ev
 
     def check(self, q) -> str | None:
-        """Reject ``q`` if a pair penetrates deeper than the limit, if two edges within contact range
-        at the start or the end of the step changed sides during it (a rope passed through another,
+        """Reject ``q`` if a pair penetrates deeper than the limit, if two edges within the list's
+        cut-off (``d + delta + margin``) at the start or the end of the step changed sides during it (a rope passed through another,
         :func:`~knotsim.contact.assembly.first_side_flip`), or if the broad phase went stale."""
         s = self.settings
         m = self.model
@@ -382,7 +383,7 @@ class ContactInteraction:
                 return (f"contact penetration {ratio[worst]:.3g} x radius between edges {a} and {b} exceeds "
                         f"penetration_limit {s.penetration_limit}")
             if self._q_prev is not None and self._q_prev.shape == q.shape:
-                flip, cos = first_side_flip(self._q_prev, q, self.pair_dofs, self.pair_d + s.delta)
+                flip, cos = first_side_flip(self._q_prev, q, self.pair_dofs, self.pair_d + s.delta + s.margin)
                 if flip >= 0:
                     a, b = self.pairs[flip]
                     angle = math.degrees(math.acos(max(-1.0, min(1.0, cos))))
