@@ -14,13 +14,15 @@ drawn into the knot about as fast as the end is pulled). Rows:
 * worst penetration of each run, fraction of h (``<= 0.2``);
 * the knot type of each bend unchanged (``held`` or ``slipped``, not untied).
 
-Measured at ``quick`` size: reef rate -0.25 (its tails are pushed out), grief rate 0.75 (1.0 with
-an earlier solver revision: round-off-level solver changes move it, hence the margin to 0.4),
-force ratio 4.2, about 10 s in all once numba has compiled.
+Measured at ``quick`` size: reef rate -0.25 (its tails are pushed out), grief rate 1.00 (0.75 with
+an earlier solver revision: round-off-level solver changes move it, hence the margin to 0.4; with
+the regularized parallel-edge distance but without the pass-through check, two edges of the
+grief swapped sides in one 5 ms step of the start-up and it came undone), force ratio 4.2, about
+10 s in all once numba has compiled.
 
 ``quick``: N = 101, dt = 5 ms, 20 mm/s for 4 s (about 5 s per bend); otherwise N = 151,
-dt = 2 ms, 10 mm/s for 10 s (about 16 s per bend;
-measured: reef -0.13, grief 1.07, force ratio 6.3). The full-size study (N = 301, 400 mm of pull, the four bends, checks
+dt = 2 ms, 10 mm/s for 10 s (about 10 s per bend;
+measured: reef -0.13, grief 1.20, force ratio 6.3). The full-size study (N = 301, 400 mm of pull, the four bends, checks
 of N, mu, stiffness and pull speed) is ``validation/knots_bends.py``.
 """
 
