@@ -155,16 +155,20 @@ def _free_flags(case):
 
 
 @njit(inline="always", cache=True)
+def _edges_and_gap(p, bi, bj):
+    """Edge vectors ``d1 = x1 − x0``, ``d2 = x3 − x2`` and ``q(β) = x0 + β_i d1 − x2 − β_j d2`` (m)."""
+    x0 = v3.load(p, 0)
+    x2 = v3.load(p, 6)
+    d1 = v3.sub(v3.load(p, 3), x0)
+    d2 = v3.sub(v3.load(p, 9), x2)
+    return d1, d2, v3.sub(v3.axpy(bi, d1, v3.sub(x0, x2)), v3.scale(bj, d2))
+
+
+@njit(inline="always", cache=True)
 def _mixed_blocks(p, eta, bi, bj):
     """``∂²f/∂x_k∂β_i`` and ``∂²f/∂x_k∂β_j`` (k = 0..3) as two 4-tuples of 3-vectors (m), and the
     entries ``(f_ii, f_ij, f_jj)`` of ``f_ββ`` (m²)."""
-    x0 = v3.load(p, 0)
-    x1 = v3.load(p, 3)
-    x2 = v3.load(p, 6)
-    x3 = v3.load(p, 9)
-    d1 = v3.sub(x1, x0)
-    d2 = v3.sub(x3, x2)
-    q = v3.sub(v3.axpy(bi, d1, v3.sub(x0, x2)), v3.scale(bj, d2))
+    d1, d2, q = _edges_and_gap(p, bi, bj)
     c0 = 1.0 - bi
     c1 = bi
     c2 = -(1.0 - bj)
@@ -260,13 +264,7 @@ def regularized_distance_derivatives(p, eta, grad, hess):
             hess[k, l] = 0.0
     if delta <= TINY_DISTANCE:
         return delta, bi, bj, case
-    x0 = v3.load(p, 0)
-    x1 = v3.load(p, 3)
-    x2 = v3.load(p, 6)
-    x3 = v3.load(p, 9)
-    d1 = v3.sub(x1, x0)
-    d2 = v3.sub(x3, x2)
-    q = v3.sub(v3.axpy(bi, d1, v3.sub(x0, x2)), v3.scale(bj, d2))
+    d1, d2, q = _edges_and_gap(p, bi, bj)
     c = (1.0 - bi, bi, -(1.0 - bj), -bj)
     ri = eta * (bi - 0.5) ** 2
     rj = eta * (bj - 0.5) ** 2
