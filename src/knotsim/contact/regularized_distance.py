@@ -196,6 +196,14 @@ def _mixed_blocks(p, eta, bi, bj):
 
 
 @njit(inline="always", cache=True)
+def _inverse_2x2(hii, hij, hjj):
+    """Entries ``(a, b, c)`` of ``[[hii, hij], [hij, hjj]]⁻¹ = [[a, b], [b, c]]`` (``f_ββ`` is
+    positive definite for ``η > 0``)."""
+    det = hii * hjj - hij * hij
+    return hjj / det, -hij / det, hii / det
+
+
+@njit(inline="always", cache=True)
 def _beta_blocks(p, eta, bi, bj, case):
     """``∂β_i/∂x_k`` and ``∂β_j/∂x_k`` (k = 0..3) as two 4-tuples of 3-vectors (1/m)."""
     z = (0.0, 0.0, 0.0)
@@ -204,10 +212,7 @@ def _beta_blocks(p, eta, bi, bj, case):
         return (z, z, z, z), (z, z, z, z)
     fi, fj, hii, hij, hjj = _mixed_blocks(p, eta, bi, bj)
     if free_i and free_j:
-        det = hii * hjj - hij * hij
-        ia = hjj / det
-        ib = -hij / det
-        ic = hii / det
+        ia, ib, ic = _inverse_2x2(hii, hij, hjj)
         gi = (
             v3.neg(v3.add(v3.scale(ia, fi[0]), v3.scale(ib, fj[0]))),
             v3.neg(v3.add(v3.scale(ia, fi[1]), v3.scale(ib, fj[1]))),
@@ -287,10 +292,7 @@ def regularized_distance_derivatives(p, eta, grad, hess):
     if free_i or free_j:
         fi, fj, hii, hij, hjj = _mixed_blocks(p, eta, bi, bj)
         if free_i and free_j:
-            det = hii * hjj - hij * hij
-            ia = hjj / det
-            ib = -hij / det
-            ic = hii / det
+            ia, ib, ic = _inverse_2x2(hii, hij, hjj)
             for k in range(4):
                 for l in range(4):
                     v3.outer_add(hess, 3 * k, 3 * l, -ia, fi[k], fi[l])
