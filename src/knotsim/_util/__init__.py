@@ -1,0 +1,1 @@
+"""Small helpers shared by every module that reads or writes files (TOML, JSON)."""
