@@ -9,7 +9,7 @@ from PIL import Image
 from knotsim.errors import ConfigError
 from knotsim.io.trajectory import TrajectoryWriter
 from knotsim.viz.animate import animate_run
-from knotsim.viz.render import render_frame, render_run, tube_mesh
+from knotsim.viz.render import render_frame, render_run
 
 SIZE = (160, 120)
 
@@ -120,23 +120,6 @@ def test_bad_arguments(tmp_path):
         render_frame(line, -0.1, out, backend="matplotlib")
     with pytest.raises(ConfigError, match="colors"):
         render_frame(line, 0.1, out, colors=["red", "blue"], backend="matplotlib")
-
-
-def test_tube_mesh_closed_ring_has_no_seam():
-    ring = _rings(30)[0]
-    # a non-planar closed curve makes the rotation-minimising frame pick up holonomy
-    s = 2 * np.pi * np.arange(30) / 30
-    wavy = ring + np.column_stack([0 * s, 0 * s, 0.4 * np.sin(3 * s)])
-    for line in (ring, wavy):
-        mesh = tube_mesh([line], [0.1], [True], subdivisions=2, n_sides=8)
-        rings = mesh.vertices.reshape(-1, 8, 3)
-        step = np.linalg.norm(np.diff(rings, axis=0), axis=2).max()
-        seam = np.linalg.norm(rings[0] - rings[-1], axis=1).max()
-        assert seam < 1.5 * step
-        assert mesh.quads.shape == (60 * 8, 4) and mesh.tris.size == 0
-    open_mesh = tube_mesh([ring[:10]], [0.1], [False], subdivisions=1, n_sides=8)
-    assert open_mesh.quads.shape == (9 * 8, 4) and open_mesh.tris.shape == (2 * 8, 3)
-    np.testing.assert_allclose(np.linalg.norm(open_mesh.normals, axis=1), 1.0)
 
 
 @pytest.fixture

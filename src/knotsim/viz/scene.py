@@ -1,0 +1,99 @@
+"""What one picture shows: validated rods, their colours and the scalars they are coloured by.
+
+:func:`prepare_scene` checks and broadcasts the user's arguments of
+:func:`knotsim.viz.render.render_frame` (one entry per rod); :func:`color_range` picks the colour
+range of the scalars.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from knotsim.errors import ConfigError
+
+__all__ = ["BACKGROUND", "DEFAULT_COLORS", "color_range", "prepare_scene"]
+
+DEFAULT_COLORS: tuple[str, ...] = (
+    "#d62728",  # red
+    "#1f77b4",  # blue
+    "#e8b90c",  # yellow
+    "#2ca02c",  # green
+    "#9467bd",  # purple
+    "#ff7f0e",  # orange
+    "#17becf",  # cyan
+    "#8c564b",  # brown
+)
+
+BACKGROUND = (1.0, 1.0, 1.0)  # RGB in [0, 1]
+
+
+def prepare_scene(
+    centerlines: Sequence[np.ndarray],
+    radii: Any,
+    closed: Any,
+    colors: Any,
+    color_by: str | None,
+    scalars: Any,
+):
+    """Check and broadcast the per-rod arguments of :func:`knotsim.viz.render.render_frame`.
+
+    Returns ``(lines, rad, cl, rgb, vals, label)``: ``lines`` one ``(N_k, 3)`` float array (m) per
+    rod, ``rad`` ``(n_rods,)`` radii (m), ``cl`` list of ``bool`` (closed), ``rgb`` ``(n_rods, 3)``
+    colours in [0, 1], ``vals`` one ``(N_k,)`` scalar array per rod or None, ``label`` the colour
+    bar's label or None.
+    """
+    lines = [np.asarray(c, dtype=np.float64).reshape(-1, 3) for c in centerlines]
+    n = len(lines)
+    if n == 0:
+        raise ConfigError("centerlines", "need at least one rod")
+    for k, c in enumerate(lines):
+        if c.shape[0] < 2 or not np.all(np.isfinite(c)):
+            raise ConfigError("centerlines", f"rod {k} needs >= 2 finite points, got shape {c.shape}")
+    rad = np.broadcast_to(np.asarray(radii, dtype=np.float64), (n,)).copy()
+    if np.any(~np.isfinite(rad)) or np.any(rad <= 0):
+        raise ConfigError("radii", f"must be positive (m), got {rad.tolist()}")
+    cl = [False] * n if closed is None else [bool(x) for x in np.broadcast_to(np.asarray(closed), (n,))]
+    if colors is None:
+        cols = [DEFAULT_COLORS[k % len(DEFAULT_COLORS)] for k in range(n)]
+    elif isinstance(colors, str) or (len(colors) in (3, 4) and np.isscalar(colors[0])):
+        cols = [colors] * n
+    else:
+        cols = list(colors)
+        if len(cols) != n:
+            raise ConfigError("colors", f"need {n} colours, got {len(cols)}")
+    from matplotlib.colors import to_rgb
+
+    try:
+        rgb = np.array([to_rgb(c) for c in cols])
+    except ValueError as exc:
+        raise ConfigError("colors", str(exc)) from None
+    vals = None
+    label = None
+    if scalars is not None:
+        vals = [np.asarray(s, dtype=np.float64).reshape(-1) for s in scalars]
+        if len(vals) != n or any(v.size != c.shape[0] for v, c in zip(vals, lines, strict=True)):
+            raise ConfigError("scalars", "need one (N_k,) array per rod, matching the centerlines")
+        label = color_by if isinstance(color_by, str) else "value"
+    elif color_by is not None:
+        if color_by != "bending_strain":
+            raise ConfigError("color_by", f"must be None or 'bending_strain', got {color_by!r}")
+        from knotsim.io.vtk import node_bending_strain
+
+        vals = [node_bending_strain(c, r, is_c) for c, r, is_c in zip(lines, rad, cl, strict=True)]
+        label = "bending strain"
+    return lines, rad, cl, rgb, vals, label
+
+
+def color_range(vals: list[np.ndarray], clim: Any) -> tuple[float, float]:
+    """``(lo, hi)`` colour range: ``clim`` if given, else the range of ``vals`` (never empty)."""
+    if clim is not None:
+        lo, hi = (float(x) for x in clim)
+    else:
+        allv = np.concatenate(vals)
+        lo, hi = float(np.nanmin(allv)), float(np.nanmax(allv))
+    if not hi > lo:
+        hi = lo + 1e-12 if lo == 0 else lo + abs(lo) * 1e-6
+    return lo, hi
