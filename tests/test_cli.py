@@ -216,7 +216,6 @@ def test_validate_module_missing(runner, monkeypatch):
 
 # ------------------------------------------------------------------------------------------ post-processing
 def test_export_vtk(runner, config_file, tmp_path):
-    pytest.importorskip("knotsim.io.vtk")
     out = tmp_path / "out"
     assert runner.invoke(main, ["run", str(config_file), "-o", str(out), "-q"]).exit_code == 0
     res = runner.invoke(main, ["export-vtk", str(out), "-o", str(tmp_path / "vtk"), "--every", "5"])

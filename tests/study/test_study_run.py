@@ -236,8 +236,7 @@ def test_animate_a_case(local_run, tmp_path):
 
 
 def test_protocol_case(tmp_path):
-    """One tiny protocol case (when knotsim.protocols exists), run in this process."""
-    pytest.importorskip("knotsim.protocols")
+    """One tiny protocol case, run in this process."""
     from knotsim.study.spec import load_study_spec
     from knotsim.study.store import StudyStore, results_frame, run_case_atomically
 

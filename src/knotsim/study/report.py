@@ -26,6 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
+from knotsim._util.toml import load_toml
+from knotsim.errors import ConfigError
+
 __all__ = ["MAE259B_PUBLISHED", "write_report"]
 
 #: Published mean F h²/EI over a 13 s pull (MAE259B; physics-notes section 5), by knot, at μ = 0.1 ... 0.5.
@@ -94,6 +97,18 @@ def _save(fig, path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=DPI)
     plt.close(fig)
+
+
+def _finish_plot(fig, ax, labels: tuple[str, str, str], figdir: Path, name: str, alt: str) -> list[str]:
+    """Label (x, y, title), add the legend and grid, save ``figdir/name``; the report's image lines."""
+    xlabel, ylabel, title = labels
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend()
+    ax.grid(alpha=0.3)
+    _save(fig, figdir / name)
+    return [f"![{alt}](report_figures/{name})", ""]
 
 
 def _param_columns(study_dir: Path, df) -> list[str]:
@@ -213,13 +228,8 @@ def _mae259b(study_dir: Path, df, params, figdir: Path) -> list[str]:
             ax.plot(t, f, ls, color=styles[k], label=f"{k}, μ = {m:g}")
             drawn += 1
     if drawn:
-        ax.set_xlabel("pull time t (s)")
-        ax.set_ylabel("F h²/EI")
-        ax.set_title("Traction against time")
-        ax.legend()
-        ax.grid(alpha=0.3)
-        _save(fig, figdir / "mae259b_traction_time.png")
-        lines += ["![F h²/EI against time](report_figures/mae259b_traction_time.png)", ""]
+        lines += _finish_plot(fig, ax, ("pull time t (s)", "F h²/EI", "Traction against time"), figdir,
+                              "mae259b_traction_time.png", "F h²/EI against time")
     else:
         import matplotlib.pyplot as plt
 
@@ -242,13 +252,8 @@ def _mae259b(study_dir: Path, df, params, figdir: Path) -> list[str]:
                         label=f"{k}, knotsim")
             for m, r in g.iterrows():
                 table_rows.append((k, m, r["mean"]))
-    ax.set_xlabel("friction coefficient μ")
-    ax.set_ylabel("mean F h²/EI")
-    ax.set_title("Mean traction against μ")
-    ax.legend()
-    ax.grid(alpha=0.3)
-    _save(fig, figdir / "mae259b_mean_traction_mu.png")
-    lines += ["![mean F h²/EI against μ](report_figures/mae259b_mean_traction_mu.png)", ""]
+    lines += _finish_plot(fig, ax, ("friction coefficient μ", "mean F h²/EI", "Mean traction against μ"), figdir,
+                          "mae259b_mean_traction_mu.png", "mean F h²/EI against μ")
     if table_rows:
         lines += ["| knot | μ | knotsim mean F h²/EI | published | ratio |", "|---|---|---|---|---|"]
         for k, m, v in sorted(table_rows):
@@ -338,8 +343,6 @@ def write_report(study_dir: str | os.PathLike, out: str | os.PathLike | None = N
     if plot_metrics is not None:
         unknown = [m for m in plot_metrics if m not in df.columns]
         if unknown:
-            from knotsim.errors import ConfigError
-
             raise ConfigError("metric", f"no metric column {unknown[0]!r} in the study; metrics are {metrics}")
         plotted = list(plot_metrics)
     figdir.mkdir(parents=True, exist_ok=True)
@@ -349,13 +352,10 @@ def write_report(study_dir: str | os.PathLike, out: str | os.PathLike | None = N
     name = prov.get("study") or study_dir.name
     lines = [f"# Study report: {name}", ""]
     try:
-        import tomllib
-
-        with open(store.study_file, "rb") as fh:
-            desc = tomllib.load(fh).get("description")
+        desc = load_toml(store.study_file, "study").get("description")
         if desc:
             lines += [desc, ""]
-    except (OSError, ValueError):
+    except (OSError, ConfigError):  # unreadable or not TOML: the report goes on without the description
         pass
     counts = df["outcome"].value_counts().to_dict() if "outcome" in df.columns and len(df) else {}
     wall = float(df["wall_time"].dropna().sum()) if "wall_time" in df.columns and len(df) else 0.0

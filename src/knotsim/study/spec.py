@@ -57,11 +57,11 @@ import json
 import math
 import os
 import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from knotsim._util.toml import dumps_toml, load_toml  # dumps_toml: re-exported (study files)
 from knotsim.errors import ConfigError
 
 __all__ = ["Case", "Study", "case_hash", "dumps_toml", "expand", "load_study_spec", "parse_key", "set_key"]
@@ -290,13 +290,7 @@ def load_study_spec(source: str | os.PathLike | dict, *, base_dir: str | os.Path
         default_name = "study"
     else:
         path = Path(source)
-        if not path.is_file():
-            raise ConfigError("study", f"file not found: {str(path)!r}")
-        try:
-            with open(path, "rb") as fh:
-                raw = tomllib.load(fh)
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            raise ConfigError("study", f"{str(path)!r} is not valid TOML: {exc}") from None
+        raw = load_toml(path, "study")
         bdir = Path(base_dir) if base_dir is not None else path.resolve().parent
         default_name = path.stem
 
@@ -320,13 +314,7 @@ def load_study_spec(source: str | os.PathLike | dict, *, base_dir: str | os.Path
                           "or base = \"run.toml\"")
     if isinstance(base, str):
         bpath = (bdir / base) if not Path(base).is_absolute() else Path(base)
-        if not bpath.is_file():
-            raise ConfigError("base", f"file not found: {str(bpath)!r}")
-        try:
-            with open(bpath, "rb") as fh:
-                base = tomllib.load(fh)
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            raise ConfigError("base", f"{str(bpath)!r} is not valid TOML: {exc}") from None
+        base = load_toml(bpath, "base")
         bdir = bpath.resolve().parent
     if not isinstance(base, dict):
         raise ConfigError("base", f"expected a table or a file name, got {base!r}")
@@ -380,58 +368,3 @@ def load_study_spec(source: str | os.PathLike | dict, *, base_dir: str | os.Path
 
     return Study(name=name, base=base, axes=axes, repeats=repeats, description=description, base_dir=bdir,
                  raw=raw)
-
-
-# ------------------------------------------------------------------------------------------ TOML writer
-def _toml_key(k: str) -> str:
-    return k if re.fullmatch(r"[A-Za-z0-9_\-]+", k) else json.dumps(k)
-
-
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if math.isnan(v):
-            return "nan"
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{ " + ", ".join(f"{_toml_key(str(k))} = {_toml_value(x)}" for k, x in v.items()) + " }"
-    if hasattr(v, "item"):
-        return _toml_value(v.item())
-    raise TypeError(f"cannot write {type(v).__name__} to TOML")
-
-
-def _is_table_array(v: Any) -> bool:
-    return isinstance(v, list) and bool(v) and all(isinstance(x, dict) for x in v)
-
-
-def dumps_toml(data: dict) -> str:
-    """Serialise a dict of TOML-compatible values (tables, arrays of tables, scalars, lists)."""
-    lines: list[str] = []
-
-    def emit(table: dict, prefix: str) -> None:
-        simple = [(k, v) for k, v in table.items() if not isinstance(v, dict) and not _is_table_array(v)]
-        for k, v in simple:
-            lines.append(f"{_toml_key(str(k))} = {_toml_value(v)}")
-        for k, v in table.items():
-            name = f"{prefix}.{_toml_key(str(k))}" if prefix else _toml_key(str(k))
-            if isinstance(v, dict):
-                lines.append("")
-                lines.append(f"[{name}]")
-                emit(v, name)
-            elif _is_table_array(v):
-                for item in v:
-                    lines.append("")
-                    lines.append(f"[[{name}]]")
-                    emit(item, name)
-
-    emit(data, "")
-    return "\n".join(lines).lstrip("\n") + "\n"

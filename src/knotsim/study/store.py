@@ -36,7 +36,9 @@ import time
 import traceback
 import uuid
 from pathlib import Path
-from typing import Any
+
+from knotsim._util.jsonio import json_safe, read_json, write_json
+from knotsim._util.toml import write_toml
 
 __all__ = ["StudyStore", "load_study", "provenance_info", "run_case_atomically"]
 
@@ -49,35 +51,6 @@ _DEPENDENCIES = ("numpy", "scipy", "numba", "h5py", "pandas", "pyarrow", "click"
 
 
 # ------------------------------------------------------------------------------------------ helpers
-def _json_default(obj):
-    if hasattr(obj, "tolist"):
-        return obj.tolist()
-    if hasattr(obj, "item"):
-        return obj.item()
-    return str(obj)
-
-
-def _clean(v):
-    """JSON-safe value: non-finite floats become None."""
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    if isinstance(v, dict):
-        return {k: _clean(x) for k, x in v.items()}
-    if isinstance(v, list | tuple):
-        return [_clean(x) for x in v]
-    return v
-
-
-def _write_json(path: Path, data: Any, *, fsync: bool = False) -> None:
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}")
-    with open(tmp, "w") as fh:
-        json.dump(_clean(data), fh, indent=2, default=_json_default)
-        if fsync:
-            fh.flush()
-            os.fsync(fh.fileno())
-    os.replace(tmp, path)
-
-
 def _fsync_dir(path: Path) -> None:
     try:
         fd = os.open(path, os.O_RDONLY)
@@ -110,7 +83,7 @@ def run_case_atomically(case: dict, study_dir: str | os.PathLike, base_dir: str 
     host = socket.gethostname()
     tmp = cases_dir / f"{TMP_PREFIX}{case['case_id']}-{host}-{os.getpid()}-{uuid.uuid4().hex[:6]}"
     tmp.mkdir(parents=True)
-    _write_json(tmp / "case.json", case)
+    write_json(tmp / "case.json", case)
     started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
     t0 = time.perf_counter()
     metrics: dict = {}
@@ -139,7 +112,7 @@ def run_case_atomically(case: dict, study_dir: str | os.PathLike, base_dir: str 
         "started": started,
         "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
     }
-    _write_json(tmp / RECORD, record, fsync=True)
+    write_json(tmp / RECORD, record, fsync=True)
     _fsync_dir(tmp)
     try:
         os.rename(tmp, final)
@@ -150,13 +123,12 @@ def run_case_atomically(case: dict, study_dir: str | os.PathLike, base_dir: str 
         shutil.rmtree(tmp, ignore_errors=True)
         return done
     _fsync_dir(cases_dir)
-    return _clean(record)
+    return json_safe(record)  # what result.json holds
 
 
 def _read_summary(case_dir: Path) -> dict | None:
     try:
-        with open(case_dir / RECORD) as fh:
-            return json.load(fh)
+        return read_json(case_dir / RECORD)
     except (FileNotFoundError, NotADirectoryError, json.JSONDecodeError):
         return None
 
@@ -287,8 +259,6 @@ class StudyStore:
     # --------------------------------------------------------------- writing
     def prepare(self, study, *, session: dict) -> None:
         """Create the directory, write ``study.toml`` and add a session to ``provenance.json``."""
-        from knotsim.study.spec import dumps_toml
-
         self.cases_dir.mkdir(parents=True, exist_ok=True)
         doc = {"name": study.name}
         if study.description:
@@ -299,21 +269,18 @@ class StudyStore:
         for k in ("grid", "zip", "cases"):
             if k in study.raw:
                 doc[k] = study.raw[k] if k != "zip" or isinstance(study.raw[k], list) else [study.raw[k]]
-        tmp = self.study_file.with_name(".study.toml.tmp")
-        tmp.write_text(dumps_toml(doc))
-        os.replace(tmp, self.study_file)
+        write_toml(self.study_file, doc)
         prov = self.read_provenance()
         info = provenance_info()
         sessions = prov.get("sessions", [])
         sessions.append({**session, **{k: info[k] for k in ("knotsim_version", "git_commit", "git_dirty")},
                          "hostname": info["machine"]["hostname"],
                          "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
-        _write_json(self.provenance_file, {"study": study.name, **info, "sessions": sessions})
+        write_json(self.provenance_file, {"study": study.name, **info, "sessions": sessions})
 
     def read_provenance(self) -> dict:
         try:
-            with open(self.provenance_file) as fh:
-                return json.load(fh)
+            return read_json(self.provenance_file)
         except (FileNotFoundError, json.JSONDecodeError):
             return {}
 
@@ -322,7 +289,7 @@ class StudyStore:
         prov = self.read_provenance()
         if prov.get("sessions"):
             prov["sessions"][-1].update(info, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
-            _write_json(self.provenance_file, prov)
+            write_json(self.provenance_file, prov)
 
     def write_results(self, cases: list, records: dict[str, dict]):
         """Write ``results.parquet``: one row per finished case of ``cases`` (in study order).
