@@ -43,6 +43,9 @@ class Simulation:
         self._retry_cooldown = 0
         self.rows: list[dict] = []
         self.n_failures = 0
+        #: ``[(name, t_start, t_end), ...]`` (s): stages of the run description; each log row names
+        #: the stage its step belongs to (column ``stage``).
+        self.stages: list[tuple[str, float, float]] = []
 
     # ------------------------------------------------------------------ stepping
     def step(self) -> StepResult:
@@ -53,6 +56,8 @@ class Simulation:
         attempts = 0
         while True:
             h = min(self.dt, t_end - self.state.time)
+            if abs(h - self.dt) <= 1e-9 * self.dt:
+                h = self.dt  # the last step ends within round-off of t_end: take the full step
             trial = self.state.copy()
             attempts += 1
             # retries of a failed step use full Newton; the steps after it return to the default
@@ -92,6 +97,9 @@ class Simulation:
             row[f"{name}_fx"], row[f"{name}_fy"], row[f"{name}_fz"], row[f"{name}_moment"] = (float(x) for x in r)
             row[f"{name}_force"] = float(np.linalg.norm(r[:3]))
         row.update(res.interaction_stats)
+        if self.stages:
+            mid = res.time - 0.5 * res.dt
+            row["stage"] = next((name for name, t0, t1 in self.stages if t0 <= mid < t1), self.stages[-1][0])
         return row
 
     def advance(self, t_end: float, callback: Callable[[Simulation, StepResult], None] | None = None) -> None:
@@ -101,6 +109,12 @@ class Simulation:
         eps = 1e-12 * max(1.0, abs(t_end))
         while self.state.time < t_end - eps:
             res = self._advance_one(t_end)
+            if self.state.time >= t_end - eps:
+                # time is a running sum of steps: land exactly on the requested end time, so that a
+                # continued run starts at t_end and its own end time is not off by round-off
+                self.state.time = t_end
+                res.time = t_end
+                self.rows[-1]["time"] = t_end
             if callback is not None:
                 callback(self, res)
 
@@ -154,6 +168,56 @@ class Simulation:
     def log(self) -> pd.DataFrame:
         """Per-step log so far (one row per accepted step)."""
         return pd.DataFrame(self.rows)
+
+    # ------------------------------------------------------------------ checkpoints
+    def component_states(self) -> dict[str, tuple[dict, dict]]:
+        """What decides the next step besides :attr:`state`, by component: ``{prefix: (scalars,
+        arrays)}`` for the adaptive step policy (``"driver"``), the stepper, every interaction with
+        a ``save_state`` method and every boundary-condition group (``"bc/<name>"``)."""
+        out: dict[str, tuple[dict, dict]] = {
+            "driver": ({"dt": float(self.dt), "easy": int(self._easy), "retry_cooldown": int(self._retry_cooldown),
+                        "n_failures": int(self.n_failures)}, {})}
+        out["stepper"] = self.stepper.save_state()
+        for inter in self.stepper.interactions:
+            if hasattr(inter, "save_state"):
+                out[f"interaction/{inter.name}"] = inter.save_state()
+        if self.bcs is not None:
+            for name, sec in self.bcs.save_state().items():
+                out[f"bc/{name}"] = sec
+        return out
+
+    def save_checkpoint(self, path) -> None:
+        """Write everything that decides the next step to ``path`` (see :mod:`knotsim.io.checkpoint`)."""
+        from knotsim.io.checkpoint import write_checkpoint
+
+        write_checkpoint(path, self)
+
+    def restore(self, checkpoint, *, boundary_conditions: bool = True) -> None:
+        """Continue from ``checkpoint`` (a :class:`~knotsim.io.checkpoint.Checkpoint` or a path).
+
+        The state, the stepper's memory, the adaptive step and the interactions' states are
+        restored; with ``boundary_conditions`` also the anchors of the groups that exist in both
+        (``False`` when the continuation brings new boundary conditions: they capture their anchors
+        afresh when they act)."""
+        from knotsim.io.checkpoint import check_layout, read_checkpoint
+
+        if not hasattr(checkpoint, "arrays"):
+            checkpoint = read_checkpoint(checkpoint)
+        check_layout(checkpoint, self.model)
+        self.state = checkpoint.state()
+        meta, _ = checkpoint.section("driver")
+        if meta:
+            self.dt = float(meta["dt"])
+            self._easy = int(meta["easy"])
+            self._retry_cooldown = int(meta["retry_cooldown"])
+            self.n_failures = int(meta["n_failures"])
+        self.stepper.load_state(*checkpoint.section("stepper"))
+        for inter in self.stepper.interactions:
+            if hasattr(inter, "load_state"):
+                inter.load_state(*checkpoint.section(f"interaction/{inter.name}"))
+        if boundary_conditions and self.bcs is not None:
+            self.bcs.load_state({name: checkpoint.section(f"bc/{name}") for name in self.bcs.groups},
+                                checkpoint.time)
 
 
 def _progress_bar(total: float, progress: bool | None):

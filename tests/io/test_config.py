@@ -238,28 +238,24 @@ def test_waypoints_absolute_at_centroid_ok():
     load_config(c)
 
 
-def test_contact_hook(monkeypatch):
-    calls = []
+def test_contact_table_builds_the_contact_interaction():
+    from knotsim.contact.model import ContactInteraction
 
-    def fake(model, table):
-        calls.append(table)
-        return ["contact-term"]
-
-    monkeypatch.setattr(cfgmod, "_contact_hook", lambda: fake)
     c = base()
     c["contact"] = {"delta": 1e-4, "mu": 0.3}
     cfg = load_config(c)
     assert cfg.contact == {"delta": 1e-4, "mu": 0.3}
-    assert cfgmod.contact_interactions(cfg.model, cfg.contact) == ["contact-term"]
-    assert calls == [{"delta": 1e-4, "mu": 0.3}]
+    (inter,) = cfgmod.contact_interactions(cfg.model, cfg.contact)
+    assert isinstance(inter, ContactInteraction)
+    assert inter.settings.delta == 1e-4 and inter.settings.mu == 0.3
 
 
-def test_contact_unavailable(monkeypatch):
-    monkeypatch.setattr(cfgmod, "_contact_hook", lambda: None)
+def test_contact_table_unknown_key_is_named():
     c = base()
-    c["contact"] = {"delta": 1e-4}
-    e = error_of(c)
-    assert str(e) == "contact: contact is not available in this version"
+    c["contact"] = {"delta": 1e-4, "stiffnes": 1.0}
+    cfg = load_config(c)
+    with pytest.raises(ConfigError, match=r"contact\.stiffnes"):
+        cfgmod.contact_interactions(cfg.model, cfg.contact)
 
 
 # ------------------------------------------------------------------------------------------ bad input

@@ -305,6 +305,39 @@ class BoundaryConditions:
             out[g.name] = r
         return out
 
+    def save_state(self) -> dict[str, tuple[dict, dict]]:
+        """Anchors captured by the prescribed groups, by group name: ``(scalars, arrays)`` for
+        :mod:`knotsim.io.checkpoint` (a group that has not captured one saves an empty section)."""
+        out = {}
+        for g in self.groups.values():
+            if not g.prescribed:
+                continue
+            if g.anchor is None:
+                out[g.name] = ({"anchored": False}, {})
+                continue
+            arrays = {"anchor": g.anchor, "anchor_theta": g.anchor_theta}
+            bound = g.path.bound_state() if g.path is not None else None
+            if bound is not None:
+                arrays["path_start"] = bound
+            out[g.name] = ({"anchored": True, "anchor_time": float(g.anchor_time)}, arrays)
+        return out
+
+    def load_state(self, sections: dict[str, tuple[dict, dict]], time: float) -> None:
+        """Restore anchors saved by :meth:`save_state` (at simulation time ``time``, s). Groups that
+        were not saved, or whose node count differs, capture their anchors afresh when they act."""
+        for name, (meta, arrays) in sections.items():
+            g = self.groups.get(name)
+            if g is None or not g.prescribed or not meta.get("anchored"):
+                continue
+            anchor = np.array(arrays["anchor"], float)
+            if anchor.shape != (len(g.nodes), 3):
+                continue
+            g.anchor = anchor
+            g.anchor_theta = np.array(arrays["anchor_theta"], float)
+            g.anchor_time = float(meta["anchor_time"])
+            if g.path is not None and "path_start" in arrays:
+                g.path.bind(np.array(arrays["path_start"], float))
+
     def reset(self) -> None:
         """Forget captured anchors (before re-running from the initial state)."""
         for g in self.groups.values():

@@ -24,6 +24,10 @@ class Path:
     def bind(self, centroid: np.ndarray) -> None:
         """Called when the group activates, with its centroid (m); most paths ignore it."""
 
+    def bound_state(self) -> np.ndarray | None:
+        """What :meth:`bind` stored (``(3,)`` m), for checkpoints; ``None`` for paths that store nothing."""
+        return None
+
     def __call__(self, elapsed: float) -> np.ndarray:
         return self.displacement(elapsed)
 
@@ -59,12 +63,21 @@ class Waypoints(Path):
         With ``absolute=True``: the points are targets for the centroid and the path starts from
         wherever the centroid is when the group activates (a first leg from there to ``points[0]``,
         reached at ``times[0] > 0``). Lets a grip that activates mid-run go to world positions.
-    After the last time the group stays at the last point.
+    then_velocity:
+        ``(3,)`` m/s: after the last time the group goes on at this velocity (default: it stays at
+        the last point). A fast approach followed by a steady pull is one path.
     """
 
-    def __init__(self, times: Sequence[float], points, absolute: bool = False, from_current: bool = False):
+    def __init__(self, times: Sequence[float], points, absolute: bool = False, from_current: bool = False,
+                 then_velocity: Sequence[float] | None = None):
         t = np.asarray(times, dtype=float)
         p = np.asarray(points, dtype=float)
+        self.then_velocity = None
+        if then_velocity is not None:
+            tv = np.asarray(then_velocity, dtype=float)
+            if tv.shape != (3,) or not np.all(np.isfinite(tv)):
+                raise ConfigError("then_velocity", f"expected 3 finite components in m/s, got {then_velocity!r}")
+            self.then_velocity = tv
         if t.ndim != 1 or t.size < 1:
             raise ConfigError("times", f"expected a list of at least one time, got {times!r}")
         if p.shape != (t.size, 3):
@@ -102,12 +115,19 @@ class Waypoints(Path):
         if self.from_current:
             self.points[0] = centroid
 
+    def bound_state(self) -> np.ndarray | None:
+        if self.from_current and np.all(np.isfinite(self.points[0])):
+            return self.points[0].copy()
+        return None
+
     def displacement(self, elapsed: float) -> np.ndarray:
         if self.from_current and not np.all(np.isfinite(self.points[0])):
             raise ConfigError("path", "a from_current waypoint path was used before its group activated")
         out = np.empty(3)
         for k in range(3):
             out[k] = np.interp(elapsed, self.times, self.points[:, k])
+        if self.then_velocity is not None and elapsed > self.times[-1]:
+            out += self.then_velocity * (elapsed - self.times[-1])
         return out - self.points[0]
 
 

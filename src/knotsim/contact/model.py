@@ -391,6 +391,30 @@ class ContactInteraction:
                             f"vector between their closest points turned by {angle:.0f} deg)")
         return None
 
+    def save_state(self) -> tuple[dict, dict]:
+        """What decides the next steps besides the rods' state: the stiffness ``k_c`` and the forces
+        that drive it, and the Verlet pair list with the positions it was built at. ``(scalars,
+        arrays)`` for :mod:`knotsim.io.checkpoint`."""
+        meta = {"k_c": float(self.k_c), "fmax_accepted": float(self._fmax_accepted), "dt_ref": float(self._dt_ref),
+                "n_rebuilds": int(self.n_rebuilds), "pattern_version": int(self.pattern_version),
+                "has_build": self._q_build is not None}
+        arrays = {"pairs": self.pairs}
+        if self._q_build is not None:
+            arrays["q_build"] = self._q_build
+        return meta, arrays
+
+    def load_state(self, meta: dict, arrays: dict) -> None:
+        """Restore what :meth:`save_state` returned (nothing to do for an empty section)."""
+        if not meta:
+            return
+        self.k_c = float(meta["k_c"])
+        self._fmax_accepted = float(meta["fmax_accepted"])
+        self._dt_ref = float(meta["dt_ref"])
+        self.n_rebuilds = int(meta["n_rebuilds"])
+        self._set_pairs(np.ascontiguousarray(arrays["pairs"], dtype=np.int64).reshape(-1, 2))
+        self.pattern_version = int(meta["pattern_version"]) + 1
+        self._q_build = np.array(arrays["q_build"], float) if meta["has_build"] else None
+
     def describe_near(self, q, node: int) -> str:
         """Text naming a candidate pair that has ``node`` (global node number) on one of its edges
         (a nearly parallel pair in contact if there is one, else the closest pair): its edges, gap

@@ -1,22 +1,25 @@
-"""Files written by a run: ``trajectory.h5``, ``log.parquet``, ``run.json``.
+"""Files written by a run: ``trajectory.h5``, ``log.parquet``, ``run.json``, ``run.toml``,
+``checkpoint.npz``.
 
-- ``trajectory.h5``: node positions and edge angles over time (format in
-  ``docs/architecture.md``), appended as the run goes;
+- ``trajectory.h5``: node positions, edge angles, velocities, reference directors and reference
+  twist over time (format in ``docs/architecture.md``), appended as the run goes;
 - ``log.parquet``: one row per accepted step (time, dt, Newton iterations, residual, energies,
-  reaction force of each named boundary-condition group, contact statistics);
-- ``run.json``: configuration (when known), knotsim version, wall time, outcome.
+  reaction force of each named boundary-condition group, contact statistics, stage);
+- ``run.json``: configuration (when known), knotsim version, wall time, outcome;
+- ``run.toml``: the complete run description (when known), which ``knotsim run`` replays;
+- ``checkpoint.npz``: everything that decides the next step, at the end of the run (or at the
+  last accepted step of a failed one): ``knotsim run --from DIR`` continues from it.
 """
 
 from __future__ import annotations
 
-import json
 import platform
 import time as _time
 from pathlib import Path
 
-import numpy as np
-
 import knotsim
+from knotsim._util.jsonio import write_json
+from knotsim._util.toml import write_toml
 from knotsim.io.trajectory import TrajectoryWriter
 
 
@@ -32,7 +35,7 @@ class RunOutput:
         self.interval = output_interval
         self.config = config if config is not None else getattr(sim, "config", None)
         self.writer = TrajectoryWriter(self.dir / "trajectory.h5", m.rod_node_start, m.rod_edge_start, m.rod_closed,
-                                       m.rod_radius, m.rod_names, flush_every=16)
+                                       m.rod_radius, m.rod_names, flush_every=16, n_bend=int(m.n_bend))
         self._next = None
         self._last_time = None
         self._rows_start = len(sim.rows)
@@ -40,8 +43,11 @@ class RunOutput:
         self.started = _time.strftime("%Y-%m-%dT%H:%M:%S%z")
 
     def frame(self, sim) -> None:
-        q = sim.state.q
-        self.writer.append(sim.state.time, self.model.node_positions(q), self.model.edge_angles(q))
+        st = sim.state
+        q = st.q
+        self.writer.append(st.time, self.model.node_positions(q), self.model.edge_angles(q),
+                           {"velocities": self.model.node_positions(st.v), "reference_directors": st.d1,
+                            "reference_twist": st.ref_twist})
         self._last_time = sim.state.time
         if self.interval:
             self._next = sim.state.time + self.interval
@@ -72,13 +78,8 @@ class RunOutput:
             "n_nodes": int(self.model.n_nodes),
             "config": self.config,
         }
-        with open(self.dir / "run.json", "w") as fh:
-            json.dump(info, fh, indent=2, default=_json_default)
-
-
-def _json_default(obj):
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    return str(obj)
+        self.sim.save_checkpoint(self.dir / "checkpoint.npz")
+        if self.config is not None:
+            write_toml(self.dir / "run.toml", self.config,
+                       header=f"knotsim {knotsim.__version__} run file, replayed by: knotsim run run.toml -o OUT")
+        write_json(self.dir / "run.json", info)

@@ -118,6 +118,12 @@ class TrajectoryWriter:
         Optional h5py compression filter for ``positions`` and ``edge_angles`` (e.g. ``"gzip"``).
     attrs:
         Extra file attributes (str, numbers or arrays), e.g. a run's configuration as TOML text.
+    n_bend:
+        Number of interior (bending) nodes of all rods. When given, every frame also stores the
+        rest of the physical state, so that a run can continue from any frame: ``velocities``
+        ``(T, n_nodes, 3)`` m/s, ``reference_directors`` ``(T, n_edges, 3)`` (unit first reference
+        director of each edge; the material frame is it rotated by the edge angle about the
+        tangent) and ``reference_twist`` ``(T, n_bend)`` rad.
     """
 
     def __init__(
@@ -133,6 +139,7 @@ class TrajectoryWriter:
         flush_every: int = 1,
         compression: str | None = None,
         attrs: dict[str, Any] | None = None,
+        n_bend: int | None = None,
     ):
         node_start, edge_start, closed, radius, names = _validate_layout(
             rod_node_start, rod_edge_start, rod_closed, rod_radius, rod_names
@@ -182,6 +189,13 @@ class TrajectoryWriter:
                 fillvalue=np.nan,
                 compression=compression,
             )
+            self._state_ds = {}
+            if n_bend is not None:
+                for key, shape in (("velocities", (self.n_nodes, 3)), ("reference_directors", (self.n_edges, 3)),
+                                   ("reference_twist", (int(n_bend),))):
+                    self._state_ds[key] = f.create_dataset(
+                        key, shape=(0, *shape), maxshape=(None, *shape), chunks=(cf, *shape),
+                        dtype=np.float64, fillvalue=np.nan, compression=compression)
             self._time = f.create_dataset(
                 "time",
                 shape=(0,),
@@ -213,7 +227,8 @@ class TrajectoryWriter:
         """True once :meth:`close` was called."""
         return self._file is None
 
-    def append(self, time: float, positions: np.ndarray, edge_angles: np.ndarray) -> int:
+    def append(self, time: float, positions: np.ndarray, edge_angles: np.ndarray,
+               state: dict[str, np.ndarray] | None = None) -> int:
         """Append one frame and return its index.
 
         Parameters
@@ -224,6 +239,9 @@ class TrajectoryWriter:
             ``(n_nodes_total, 3)`` node positions (m), or the same flattened.
         edge_angles:
             ``(n_edges_total,)`` edge twist angles (rad).
+        state:
+            With ``n_bend`` given at creation: ``velocities``, ``reference_directors`` and
+            ``reference_twist`` of the frame (shapes in the class docstring).
         """
         if self._file is None:
             raise ConfigError("TrajectoryWriter", f"append() after close() on {self.path}")
@@ -242,6 +260,11 @@ class TrajectoryWriter:
         self._positions[k] = x.reshape(self.n_nodes, 3)
         self._edge_angles.resize(k + 1, axis=0)
         self._edge_angles[k] = th
+        for key, ds in self._state_ds.items():
+            if state is None or key not in state:
+                raise ConfigError("state", f"this trajectory stores {key} with every frame; pass it in state")
+            ds.resize(k + 1, axis=0)
+            ds[k] = np.asarray(state[key], dtype=np.float64).reshape(ds.shape[1:])
         self._time.resize(k + 1, axis=0)
         self._time[k] = t
         self._n_frames = k + 1
@@ -353,6 +376,9 @@ class Trajectory:
     frame_indices: np.ndarray
     attrs: dict[str, Any] = field(default_factory=dict)
     path: Path | None = None
+    #: ``velocities``, ``reference_directors``, ``reference_twist`` of the loaded frames when the file
+    #: stores them (see :class:`TrajectoryWriter`), else empty.
+    state: dict[str, np.ndarray] = field(default_factory=dict)
     _file: h5py.File | None = field(default=None, repr=False)
 
     # ------------------------------------------------------------------ sizes
@@ -462,6 +488,9 @@ def _select_frames(frames: Any, n: int) -> np.ndarray:
     return sel % n if n else sel
 
 
+_STATE_KEYS = ("velocities", "reference_directors", "reference_twist")
+
+
 def read_trajectory(path: str | os.PathLike, frames: Any = None, *, lazy: bool = False) -> Trajectory:
     """Read a trajectory file written by :class:`TrajectoryWriter`.
 
@@ -539,8 +568,10 @@ def read_trajectory(path: str | os.PathLike, frames: Any = None, *, lazy: bool =
             )
         positions = _LazyFrames(pos_ds, sel)[:]
         edge_angles = _LazyFrames(ang_ds, sel)[:]
+        state = {key: _LazyFrames(f[key], sel)[:] for key in _STATE_KEYS
+                 if key in f and f[key].shape[0] >= n}
     except BaseException:
         f.close()
         raise
     f.close()
-    return Trajectory(positions=positions, edge_angles=edge_angles, **common)
+    return Trajectory(positions=positions, edge_angles=edge_angles, state=state, **common)

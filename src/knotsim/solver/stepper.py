@@ -394,6 +394,22 @@ class Stepper:
         state.tangents = self.elastic.tangents.copy()
         state.ref_twist = self.elastic.ref_twist.copy()
 
+    # -- checkpoints ----------------------------------------------------------------------
+    def save_state(self) -> tuple[dict, dict]:
+        """The stepper's memory between steps (the acceleration predictor's previous step):
+        ``(scalars, arrays)`` for :mod:`knotsim.io.checkpoint`."""
+        if self._history is None:
+            return {"history": False}, {}
+        t, v, dt = self._history
+        return {"history": True, "time": float(t), "dt": float(dt)}, {"v_prev": v}
+
+    def load_state(self, meta: dict, arrays: dict) -> None:
+        """Restore what :meth:`save_state` returned."""
+        if meta.get("history"):
+            self._history = (float(meta["time"]), np.array(arrays["v_prev"], float), float(meta["dt"]))
+        else:
+            self._history = None
+
     # -- stepping -------------------------------------------------------------------------
     def _predict(self, state_in: State, dt: float) -> np.ndarray:
         """Initial Newton guess for the step from ``state_in`` over ``dt`` (see ``predictor``)."""

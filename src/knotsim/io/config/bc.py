@@ -1,0 +1,201 @@
+"""``[[bc]]`` tables of a run file, checked and applied to a
+:class:`~knotsim.bc.BoundaryConditions` (see ``docs/run-files.md`` for every key)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from knotsim._util.fields import (
+    as_bool,
+    as_int_list,
+    as_number,
+    as_numbers,
+    as_string,
+    as_table,
+    as_vec3,
+    check_keys,
+    error_message,
+    get_field,
+    type_name,
+)
+from knotsim.bc import BoundaryConditions, Waypoints
+from knotsim.errors import ConfigError
+from knotsim.rods import Model
+
+_BC_COMMON = ("type", "name", "rod", "nodes", "start", "stop")
+_BC_TYPES = {
+    "clamp": _BC_COMMON + ("twist",),
+    "hold": _BC_COMMON,
+    "move": _BC_COMMON + ("twist", "velocity", "waypoints"),
+    "rotate": _BC_COMMON + ("rate",),
+    "force": _BC_COMMON + ("force", "ramp"),
+    "moment": ("type", "name", "rod", "edges", "start", "stop", "moment", "ramp"),
+    "release": ("type", "name", "at"),
+}
+
+
+@dataclass
+class BCSpec:
+    index: int
+    kind: str
+    name: str
+    kwargs: dict
+    key_map: dict = field(default_factory=dict)  # API field suffix -> TOML key
+
+
+def _ramp(value, path: str, start: float, shape: tuple):
+    r = as_table(value, path)
+    check_keys(r, path, ("from", "to", "duration", "rate"))
+    conv = as_vec3 if shape == (3,) else as_number
+    f0 = get_field(r, "from", path, conv)
+    if "rate" in r:
+        if "to" in r or "duration" in r:
+            raise ConfigError(f"{path}.rate", "give either rate (per s, unbounded) or to and duration")
+        rate = get_field(r, "rate", path, conv)
+
+        def growing(t: float):
+            """Load at absolute time ``t`` (s): ``from + rate (t - start)`` from ``start`` on."""
+            return f0 + rate * max(t - start, 0.0)
+
+        return growing
+    f1 = get_field(r, "to", path, conv)
+    dur = get_field(r, "duration", path, as_number, positive=True)
+
+    def load(t: float):
+        """Load at absolute time ``t`` (s): linear from ``start`` to ``start + duration``."""
+        return f0 + (f1 - f0) * min(max((t - start) / dur, 0.0), 1.0)
+
+    return load
+
+
+def parse_bc(t, i: int) -> BCSpec:
+    path = f"bc[{i}]"
+    t = as_table(t, path)
+    if "type" not in t:
+        check_keys(t, path, sorted(set().union(*_BC_TYPES.values())))
+    kind = get_field(t, "type", path, as_string)
+    if kind not in _BC_TYPES:
+        raise ConfigError(f"{path}.type", f"unknown type {kind!r}; expected one of {', '.join(_BC_TYPES)}")
+    own = _BC_TYPES[kind]
+    elsewhere = {k: f"not used by type '{kind}'" for keys in _BC_TYPES.values() for k in keys if k not in own}
+    check_keys(t, path, own, elsewhere)
+
+    if kind == "release":
+        name = get_field(t, "name", path, as_string)
+        at = get_field(t, "at", path, as_number, nonneg=True)
+        return BCSpec(i, kind, name, {"at": at})
+
+    name = get_field(t, "name", path, as_string, f"{kind}{i}")
+    if not name:
+        raise ConfigError(f"{path}.name", "must not be empty")
+    rod = t.get("rod", 0)
+    if not (isinstance(rod, str) or (isinstance(rod, int) and not isinstance(rod, bool))):
+        raise ConfigError(f"{path}.rod", f"expected a rod name or index, got {rod!r} ({type_name(rod)})")
+    start = get_field(t, "start", path, as_number, 0.0, nonneg=True)
+    stop = get_field(t, "stop", path, as_number, None)
+    kw: dict = {"rod": rod, "start": start, "stop": stop}
+    key_map: dict = {}
+    if kind == "moment":
+        kw["edges"] = get_field(t, "edges", path, as_int_list)
+    else:
+        kw["nodes"] = get_field(t, "nodes", path, as_int_list)
+    if kind in ("clamp", "move"):
+        kw["twist"] = get_field(t, "twist", path, as_bool, True)
+    if kind == "move":
+        has_v, has_w = "velocity" in t, "waypoints" in t
+        if has_v == has_w:
+            raise ConfigError(f"{path}.velocity", "a moving group needs exactly one of 'velocity' or 'waypoints'")
+        if has_v:
+            kw["path"] = as_vec3(t["velocity"], f"{path}.velocity")
+            key_map["path"] = "velocity"
+        else:
+            wpath = f"{path}.waypoints"
+            w = as_table(t["waypoints"], wpath)
+            check_keys(w, wpath, ("times", "points", "absolute", "from_current", "then_velocity"))
+            times = get_field(w, "times", wpath, as_numbers)
+            points = get_field(w, "points", wpath, as_numbers)
+            absolute = get_field(w, "absolute", wpath, as_bool, False)
+            from_current = get_field(w, "from_current", wpath, as_bool, False)
+            then_v = get_field(w, "then_velocity", wpath, as_vec3, None)
+            try:
+                kw["path"] = Waypoints(times, points, absolute=absolute, from_current=from_current,
+                                       then_velocity=then_v)
+            except ConfigError as exc:
+                raise ConfigError(f"{wpath}.{exc.field}", error_message(exc)) from None
+            key_map["path"] = "waypoints"
+    elif kind == "rotate":
+        kw["rate"] = get_field(t, "rate", path, as_number)
+    elif kind in ("force", "moment"):
+        shape = (3,) if kind == "force" else ()
+        has_c, has_r = kind in t, "ramp" in t
+        if has_c == has_r:
+            raise ConfigError(f"{path}.{kind}", f"give exactly one of '{kind}' (constant) or 'ramp'")
+        if has_c:
+            value = as_vec3(t[kind], f"{path}.{kind}") if shape else as_number(t[kind], f"{path}.{kind}")
+            key_map[""] = kind
+        else:
+            value = _ramp(t["ramp"], f"{path}.ramp", start, shape)
+            key_map[""] = "ramp"
+        kw[kind] = value
+    return BCSpec(i, kind, name, kw, key_map)
+
+
+def resolve_releases(specs: list[BCSpec]) -> list[BCSpec]:
+    """Fold ``release`` entries into the ``stop`` of the group they release."""
+    groups: dict[str, BCSpec] = {}
+    for s in specs:
+        if s.kind == "release":
+            continue
+        if s.name in groups:
+            raise ConfigError(f"bc[{s.index}].name",
+                              f"duplicate name {s.name!r} (also used by bc[{groups[s.name].index}])")
+        groups[s.name] = s
+    released: dict[str, int] = {}
+    for s in specs:
+        if s.kind != "release":
+            continue
+        where = f"bc[{s.index}]"
+        if s.name not in groups:
+            raise ConfigError(f"{where}.name", f"no boundary condition named {s.name!r} to release; "
+                                               f"known: {sorted(groups)}")
+        if s.name in released:
+            raise ConfigError(f"{where}.name", f"{s.name!r} is already released by bc[{released[s.name]}]")
+        g = groups[s.name]
+        at = s.kwargs["at"]
+        if g.kwargs["stop"] is not None:
+            raise ConfigError(f"{where}.at", f"{s.name!r} already has stop = {g.kwargs['stop']} s; "
+                                             "give either a stop time or a release")
+        if at <= g.kwargs["start"]:
+            raise ConfigError(f"{where}.at",
+                              f"release time {at} s is not after the start {g.kwargs['start']} s of {s.name!r}")
+        g.kwargs["stop"] = at
+        released[s.name] = s.index
+    return [s for s in specs if s.kind != "release"]
+
+
+def _apply_bc(bcs: BoundaryConditions, s: BCSpec) -> None:
+    method = getattr(bcs, s.kind)
+    try:
+        method(s.name, **s.kwargs)
+    except ConfigError as exc:
+        prefix = f"bc.{s.name}"
+        fld = exc.field
+        if fld == prefix:
+            rest = ""
+        elif fld.startswith(prefix + "."):
+            rest = fld[len(prefix) + 1:]
+        else:
+            rest = fld
+        rest = s.key_map.get(rest, rest)
+        raise ConfigError(f"bc[{s.index}]" + (f".{rest}" if rest else ""), error_message(exc)) from None
+
+
+def bcs_builder(specs: list[BCSpec]) -> Callable[[Model], BoundaryConditions]:
+    def build(model: Model) -> BoundaryConditions:
+        bcs = BoundaryConditions(model)
+        for s in specs:
+            _apply_bc(bcs, s)
+        return bcs
+
+    return build

@@ -1,0 +1,156 @@
+"""The run builder: one complete, serialisable run description and one function that turns it into
+a simulation. Every entry point goes through it: Python (:func:`build_run`, :func:`run`),
+``knotsim run`` files, the loading protocols (``knotsim pull``), study cases and tying sequences
+(``knotsim tie``).
+
+>>> spec = RunSpec.load("examples/hanging_rod.toml")       # or RunSpec.from_dict({...})
+>>> result = run(spec, "out")                               # trajectory, log, run.toml, checkpoint
+>>> later = run(RunSpec.load("out/run.toml"), "out2", duration=1.0, continue_from="out")
+
+A run description is a plain dict with the tables of a run file (``docs/run-files.md``):
+``rods``, ``model``, ``bc``, ``contact``, ``solver``, ``run``, ``stages``, ``description``,
+``provenance``. :meth:`RunSpec.save` writes it as TOML with every float exact, so the file replays
+the run to the last bit; every run directory holds its own ``run.toml``.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from knotsim._util.toml import load_toml, write_toml
+from knotsim.errors import ConfigError
+
+__all__ = ["RunResult", "RunSpec", "build_run", "run"]
+
+#: rod keys that name files, resolved against the description's directory when it is saved elsewhere
+_PATH_KEYS = ("file", "run")
+
+
+@dataclass
+class RunSpec:
+    """A complete run description (see the module docstring).
+
+    ``data`` is the plain dict; ``base_dir`` the directory relative file names in it (``rods[i].file``,
+    ``rods[i].run``) are resolved against.
+    """
+
+    data: dict
+    base_dir: Path = field(default_factory=Path.cwd)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> RunSpec:
+        """Read a run file (TOML)."""
+        p = Path(path)
+        return cls(load_toml(p, "config"), p.resolve().parent)
+
+    @classmethod
+    def from_dict(cls, data: dict, base_dir: str | os.PathLike | None = None) -> RunSpec:
+        """A description from a dict (copied)."""
+        return cls(copy.deepcopy(data), Path(base_dir) if base_dir is not None else Path.cwd())
+
+    @classmethod
+    def coerce(cls, spec: RunSpec | dict | str | os.PathLike) -> RunSpec:
+        """``spec`` as a :class:`RunSpec` (a path is loaded, a dict copied)."""
+        if isinstance(spec, RunSpec):
+            return spec
+        if isinstance(spec, dict):
+            return cls.from_dict(spec)
+        if isinstance(spec, str | os.PathLike):
+            return cls.load(spec)
+        raise ConfigError("config", f"expected a RunSpec, a dict or a run file path, got {type(spec).__name__}")
+
+    def to_dict(self) -> dict:
+        """The description with every relative file name made absolute (valid from any directory)."""
+        data = copy.deepcopy(self.data)
+        for rod in data.get("rods", []) or []:
+            if isinstance(rod, dict):
+                for key in _PATH_KEYS:
+                    if isinstance(rod.get(key), str) and not Path(rod[key]).expanduser().is_absolute():
+                        rod[key] = str((self.base_dir / rod[key]).resolve())
+        return data
+
+    def save(self, path: str | os.PathLike, header: str = "") -> Path:
+        """Write the description as a TOML run file (floats exact; ``header`` as comment lines)."""
+        return write_toml(path, self.to_dict(), header=header)
+
+    def with_changes(self, **tables: Any) -> RunSpec:
+        """A copy with top-level tables replaced, e.g. ``spec.with_changes(run={"duration": 2.0})``."""
+        data = copy.deepcopy(self.data)
+        data.update(copy.deepcopy(tables))
+        return RunSpec(data, self.base_dir)
+
+
+def build_run(spec: RunSpec | dict | str | os.PathLike, *, duration: float | None = None,
+              continue_from: str | os.PathLike | None = None):
+    """A :class:`~knotsim.simulation.Simulation` ready to run ``spec``, and the checked
+    :class:`~knotsim.io.config.RunConfig`: ``(sim, config)``.
+
+    ``duration`` (s) overrides ``run.duration``. ``continue_from`` is an earlier run's output
+    directory: the simulation starts from its ``checkpoint.npz`` (state, stepper memory, adaptive
+    step, contact state) at the time it stopped. Boundary-condition groups of the same name keep
+    their captured anchors when ``spec`` is that run's own description; a new description's groups
+    capture theirs when they first act.
+    """
+    from knotsim.io.checkpoint import read_checkpoint
+    from knotsim.io.config import build_simulation, load_config
+
+    rs = RunSpec.coerce(spec)
+    cfg = load_config(rs.data, base_dir=rs.base_dir, duration=duration)
+    cfg.raw = RunSpec(cfg.raw, rs.base_dir).to_dict()
+    sim = build_simulation(cfg)
+    if continue_from is not None:
+        d = Path(continue_from)
+        ckpt_path = d / "checkpoint.npz"
+        if not ckpt_path.is_file():
+            raise ConfigError("from", f"{str(d)!r} has no checkpoint.npz to continue from (is it a knotsim run "
+                                      "directory written by this version?)")
+        ckpt = read_checkpoint(ckpt_path)
+        same = (d / "run.toml").is_file() and _same_bcs(load_toml(d / "run.toml"), cfg.raw)
+        sim.restore(ckpt, boundary_conditions=same)
+        sim.config.setdefault("provenance", {})["continued_from"] = str(d.resolve())
+    return sim, cfg
+
+
+def _same_bcs(a: dict, b: dict) -> bool:
+    return a.get("bc") == b.get("bc") and a.get("stages") == b.get("stages")
+
+
+@dataclass
+class RunResult:
+    """What :func:`run` returns: the per-step ``log``, the final ``state``, the ``simulation``,
+    ``status`` (``"completed"`` or ``"failed at t = ... s: ..."``) and the ``output_dir``."""
+
+    log: pd.DataFrame
+    state: Any
+    simulation: Any
+    status: str
+    output_dir: Path | None
+
+
+def run(spec: RunSpec | dict | str | os.PathLike, output_dir: str | os.PathLike | None = None, *,
+        duration: float | None = None, continue_from: str | os.PathLike | None = None,
+        progress: bool | None = None, callback=None, raise_on_failure: bool = True) -> RunResult:
+    """Build and run ``spec`` (see :func:`build_run`); with ``output_dir`` write the run files there.
+
+    A failed run (:class:`~knotsim.errors.SimulationError`) keeps everything it computed: the
+    files are written up to the last accepted step (with its checkpoint) and, with
+    ``raise_on_failure=False``, the result says ``status = "failed ..."`` instead of raising.
+    ``duration`` is the simulated time to add (s; default ``run.duration``)."""
+    from knotsim.errors import SimulationError
+
+    sim, cfg = build_run(spec, duration=duration, continue_from=continue_from)
+    status = "completed"
+    try:
+        sim.run(cfg.duration, output_dir=output_dir, output_interval=cfg.output_interval, progress=progress,
+                callback=callback)
+    except SimulationError as exc:
+        status = f"failed at t = {sim.state.time:.6g} s: {exc}"
+        if raise_on_failure:
+            raise
+    return RunResult(sim.log(), sim.state, sim, status, Path(output_dir) if output_dir is not None else None)
