@@ -17,9 +17,10 @@ Timed per case (best of many runs after warm-up, in ms):
 * ``splu_colamd``: ``splu(A, permc_spec="COLAMD")`` + solve;
 * ``splu_rcm``: values permuted by a precomputed RCM map, ``splu(.., "NATURAL")`` + solve;
 * ``solve_banded`` (no contacts only): ``scipy.linalg.solve_banded`` on a prebuilt band array;
-* ``fplu``: :class:`knotsim.solver.sparse_lu.FixedPatternLU` ``factorize`` + ``solve`` (the
+* ``fplu``: :class:`knotsim.solver.lu.FixedPatternLU` ``factorize`` + ``solve`` (the
   analyse time, done once per pattern, is reported separately as ``analyse_ms``);
-* ``fplu_up``: the same with ``method="uplooking"`` (scalar, no dense blocks).
+* ``fplu_up``: the same with the tests' reference up-looking LU
+  (``tests/solver/reference_lu.py``: scalar, no dense blocks).
 
 Prints a table and ends with one JSON line ``{"results": [...]}``.
 """
@@ -30,6 +31,7 @@ import json
 import os
 import sys
 import time
+from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -40,7 +42,11 @@ from scipy.linalg import solve_banded  # noqa: E402
 from scipy.sparse.csgraph import reverse_cuthill_mckee  # noqa: E402
 from scipy.sparse.linalg import splu  # noqa: E402
 
-from knotsim.solver.sparse_lu import FixedPatternLU  # noqa: E402
+from knotsim.solver.lu import FixedPatternLU  # noqa: E402
+
+# the tests' reference LU, under the module name pytest gives it (numba's cache records that name)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from solver.reference_lu import UpLookingLU  # noqa: E402
 
 HALF_BW = 10
 
@@ -168,12 +174,10 @@ def bench_case(n_nodes: int, n_contacts: int, layout: str, budget: float) -> lis
         ab[HALF_BW + Acoo.row - Acoo.col, Acoo.col] = Acoo.data
         record("solve_banded", lambda: solve_banded((HALF_BW, HALF_BW), ab, b, check_finite=False))
 
-    for method, name in (("multifrontal", "fplu"), ("uplooking", "fplu_up")):
-        FixedPatternLU(n, A.indptr, A.indices, method=method)  # compile / warm caches
-        analyse_ms = best_time(
-            lambda m=method: FixedPatternLU(n, A.indptr, A.indices, method=m), min_reps=3, budget=budget / 2
-        )
-        lu = FixedPatternLU(n, A.indptr, A.indices, method=method)
+    for cls, name in ((FixedPatternLU, "fplu"), (UpLookingLU, "fplu_up")):
+        cls(n, A.indptr, A.indices)  # compile / warm caches
+        analyse_ms = best_time(lambda c=cls: c(n, A.indptr, A.indices), min_reps=3, budget=budget / 2)
+        lu = cls(n, A.indptr, A.indices)
         xo = np.empty(n)
         record(name, lambda lu=lu, xo=xo: lu.factorize_solve(A.data, b, out=xo), analyse_ms)
     return out

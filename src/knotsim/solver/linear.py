@@ -75,7 +75,7 @@ class SparseSolver:
             raise LinearSolveError("Newton matrix has NaN or infinite entries")
         self._splu = None
         if self.method in ("auto", "fixed_lu"):
-            from knotsim.solver.sparse_lu import FixedPatternLU, ZeroPivotError
+            from knotsim.solver.lu import FixedPatternLU, ZeroPivotError
 
             if self._key != pattern_id or self._lu is None:
                 blocks = list(self.blocks) if self.blocks is not None else 4
