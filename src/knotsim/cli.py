@@ -3,6 +3,9 @@
 ::
 
     knotsim run CONFIG.toml -o OUTDIR [--duration S] [--quiet]
+    knotsim run [CONFIG.toml] --from RUN_DIR -o OUTDIR [--duration S]
+    knotsim pull KNOT | --geometry PATH -o OUTDIR [--protocol P] [--set K=V] [--quick] [--save-config F]
+    knotsim tie SEQUENCE -o OUTDIR | --list
     knotsim validate [CASE ...] [--quick] [--json-only]
     knotsim export-vtk RUN_DIR -o DIR [--every N] [--ascii]
     knotsim render RUN_DIR [--frames last|first|all|I,J,..] [-o DIR] [--view iso|top|front|ELEV,AZIM]
@@ -43,18 +46,27 @@ def main():
 
 # ------------------------------------------------------------------------------------------ run
 @main.command()
-@click.argument("config", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("config", required=False, type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path),
-              help="Output directory (trajectory.h5, log.parquet, run.json).")
+              help="Output directory (trajectory.h5, log.parquet, run.json, run.toml, checkpoint.npz).")
+@click.option("--from", "from_dir", type=click.Path(exists=True, file_okay=False, path_type=Path), default=None,
+              help="Continue the run in this output directory from its checkpoint (with CONFIG: under the new "
+                   "boundary conditions, contact and solver settings of CONFIG).")
 @click.option("--duration", type=float, default=None, help="Simulated time in s (overrides run.duration).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar and no summary.")
 @_exit_codes
-def run(config: Path, outdir: Path, duration: float | None, quiet: bool):
-    """Run the simulation described by CONFIG (a TOML file, see knotsim.io.config)."""
-    from knotsim.io.config import build_simulation, load_config
+def run(config: Path | None, outdir: Path, from_dir: Path | None, duration: float | None, quiet: bool):
+    """Run the simulation described by CONFIG (a run file, see docs/run-files.md), or continue --from DIR."""
+    from knotsim.errors import ConfigError
+    from knotsim.run import RunSpec, build_run
 
-    cfg = load_config(config, duration=duration)
-    sim = build_simulation(cfg)
+    if config is None:
+        if from_dir is None:
+            raise ConfigError("config", "give a run file CONFIG, or --from DIR to continue a run")
+        config = from_dir / "run.toml"
+        if not config.is_file():
+            raise ConfigError("from", f"{str(from_dir)!r} has no run.toml; give the run file as CONFIG")
+    sim, cfg = build_run(RunSpec.load(config), duration=duration, continue_from=from_dir)
     wall0 = time.perf_counter()
     try:
         log = sim.run(cfg.duration, output_dir=outdir, output_interval=cfg.output_interval,
@@ -246,10 +258,10 @@ def render(run_dir: Path, frames: str, outdir: Path | None, view: str, size: str
 
 def _register_subcommands() -> None:
     """Commands owned by other packages (their heavy imports happen inside the commands)."""
-    from knotsim.protocols.cli import knots, tie
+    from knotsim.protocols.cli import knots, pull, tie
     from knotsim.study.cli import animate, report, study
 
-    for command in (knots, tie, study, report, animate):
+    for command in (knots, pull, tie, study, report, animate):
         main.add_command(command)
 
 

@@ -41,6 +41,11 @@ class Simulation:
         self.dt_min = self.settings.dt_min or self.settings.dt / 1024.0
         self._easy = 0
         self._retry_cooldown = 0
+        #: ``(state, component states)`` just before a final step that was shortened to land on the
+        #: requested end time (see :meth:`resume_point`), else ``None``
+        self._before_short_step = None
+        #: end time (s) a restored checkpoint's run was asked to reach (see :meth:`run`)
+        self._continue_end: float | None = None
         self.rows: list[dict] = []
         self.n_failures = 0
         #: ``[(name, t_start, t_end), ...]`` (s): stages of the run description; each log row names
@@ -58,6 +63,9 @@ class Simulation:
             h = min(self.dt, t_end - self.state.time)
             if abs(h - self.dt) <= 1e-9 * self.dt:
                 h = self.dt  # the last step ends within round-off of t_end: take the full step
+            shortened = h < self.dt
+            if shortened and attempts == 0:
+                self._before_short_step = (self.state.copy(), _copy_sections(self.component_states()))
             trial = self.state.copy()
             attempts += 1
             # retries of a failed step use full Newton; the steps after it return to the default
@@ -76,6 +84,8 @@ class Simulation:
                         last_good_state=self.state.copy(), time=self.state.time) from exc
                 continue
             self.state = trial
+            if not shortened:
+                self._before_short_step = None
             res.attempts = attempts
             self._retry_cooldown = self.settings.grow_after if attempts > 1 else max(0, self._retry_cooldown - 1)
             if res.iterations <= self.settings.easy_iterations:
@@ -130,7 +140,9 @@ class Simulation:
             raise ConfigError("duration", f"must be a positive time in s, got {duration!r}")
         from knotsim.io.run_output import RunOutput
 
-        t_end = self.state.time + duration
+        t_start_run = self.state.time if self._continue_end is None else self._continue_end
+        self._continue_end = None
+        t_end = t_start_run + duration
         out = RunOutput(output_dir, self, output_interval) if output_dir is not None else None
         bar = _progress_bar(duration, progress)
         wall0 = _time.perf_counter()
@@ -186,6 +198,18 @@ class Simulation:
                 out[f"bc/{name}"] = sec
         return out
 
+    def resume_point(self):
+        """``(state, component states, end_time)`` to continue this run from.
+
+        The current state, unless the last step was shortened to land on the requested end time:
+        then the state just before that step, so that a continued run takes the same steps as an
+        uninterrupted one (a run of 2T and a run of T continued for T end in the same state).
+        ``end_time`` is the time the run reached (s)."""
+        if self._before_short_step is not None:
+            state, comps = self._before_short_step
+            return state, comps, float(self.state.time)
+        return self.state, self.component_states(), float(self.state.time)
+
     def save_checkpoint(self, path) -> None:
         """Write everything that decides the next step to ``path`` (see :mod:`knotsim.io.checkpoint`)."""
         from knotsim.io.checkpoint import write_checkpoint
@@ -205,6 +229,7 @@ class Simulation:
             checkpoint = read_checkpoint(checkpoint)
         check_layout(checkpoint, self.model)
         self.state = checkpoint.state()
+        self._continue_end = checkpoint.end_time
         meta, _ = checkpoint.section("driver")
         if meta:
             self.dt = float(meta["dt"])
@@ -218,6 +243,10 @@ class Simulation:
         if boundary_conditions and self.bcs is not None:
             self.bcs.load_state({name: checkpoint.section(f"bc/{name}") for name in self.bcs.groups},
                                 checkpoint.time)
+
+
+def _copy_sections(sections: dict[str, tuple[dict, dict]]) -> dict[str, tuple[dict, dict]]:
+    return {k: (dict(meta), {n: np.array(a, copy=True) for n, a in arrays.items()}) for k, (meta, arrays) in sections.items()}
 
 
 def _progress_bar(total: float, progress: bool | None):

@@ -139,7 +139,7 @@ def test_two_rope_bend_outcome_uses_tail_draw_in():
     """The protocol's metrics on a synthetic log: a slow slip under a steady force is 'slipped'."""
     from types import SimpleNamespace
 
-    from knotsim.protocols.base import resolve_params
+    from knotsim.protocols.params import resolve_params
     from knotsim.protocols.two_rope_bend import TwoRopeBend
 
     proto = TwoRopeBend()

@@ -125,7 +125,7 @@ def test_shipped_study_files_expand_to_valid_cases():
 
     from knotsim.knots.library import load_knot_spec
     from knotsim.protocols import get_protocol
-    from knotsim.protocols.base import COMMON_DEFAULTS, resolve_params
+    from knotsim.protocols.params import COMMON_DEFAULTS, resolve_params
     from knotsim.study.spec import load_study_spec
 
     files = sorted((Path(__file__).resolve().parents[2] / "examples" / "studies").glob("*.toml"))

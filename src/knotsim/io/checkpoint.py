@@ -12,8 +12,10 @@ A checkpoint holds
   time they were captured, and the start point of a ``from_current`` path);
 - the model's layout (rod names, node and edge counts, closed flags, radii), checked on restore.
 
-Restoring a checkpoint into a simulation built from the same run description continues the run
-exactly: a run of ``2T`` and a run of ``T`` continued for ``T`` end in the same state (see
+When the run's last step was shortened to land on the requested end time, the checkpoint holds
+the state just before that step (and the end time reached), so that the continuation takes the
+same steps as an uninterrupted run. Restoring a checkpoint into a simulation built from the same
+run description continues the run exactly: a run of ``2T`` and a run of ``T`` continued for ``T`` end in the same state (see
 ``tests/test_restart.py``). Arrays are stored under flat keys (``state/q``, ``bc/<name>/anchor``,
 ``interaction/<name>/pairs``) with the scalars as one JSON document (``meta``).
 """
@@ -47,6 +49,14 @@ class Checkpoint:
     def time(self) -> float:
         """Simulation time of the saved state, s."""
         return float(self.meta["time"])
+
+    @property
+    def end_time(self) -> float:
+        """Time the saved run reached, s: :attr:`time`, or later when its last step was shortened
+        to land on the requested end (the checkpoint then holds the state before that step, see
+        :meth:`knotsim.simulation.Simulation.resume_point`); a continued run of duration ``T``
+        ends at ``end_time + T``."""
+        return float(self.meta.get("end_time", self.meta["time"]))
 
     def state(self):
         """The saved :class:`~knotsim.solver.state.State`."""
@@ -94,16 +104,16 @@ def write_checkpoint(path: str | os.PathLike, sim) -> Path:
     import knotsim
 
     p = Path(path)
-    st = sim.state
+    st, sections, end_time = sim.resume_point()
     arrays: dict[str, np.ndarray] = {f"state/{k}": np.asarray(getattr(st, k)) for k in _STATE_KEYS}
     arrays["layout/node_dof"] = np.asarray(sim.model.node_dof)
     arrays["layout/edge_theta_dof"] = np.asarray(sim.model.edge_theta_dof)
     components: dict[str, dict] = {}
-    for prefix, (meta, arrs) in sim.component_states().items():
+    for prefix, (meta, arrs) in sections.items():
         components[prefix] = meta
         for k, a in arrs.items():
             arrays[f"{prefix}/{k}"] = np.asarray(a)
-    meta = {"format": FORMAT, "knotsim_version": knotsim.__version__, "time": float(st.time),
+    meta = {"format": FORMAT, "knotsim_version": knotsim.__version__, "time": float(st.time), "end_time": end_time,
             "layout": _layout(sim.model), "components": components}
     tmp = p.with_name(f".{p.name}.tmp.npz")
     np.savez(tmp, meta=np.array(json.dumps(meta)), **arrays)

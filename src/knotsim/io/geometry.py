@@ -122,6 +122,18 @@ def _read_mat(f: Path, matrices: list[str] | None, field: str) -> list[np.ndarra
     return out
 
 
+def _stores_state(traj: Path) -> bool:
+    if not traj.is_file():
+        return False
+    import h5py
+
+    try:
+        with h5py.File(traj, "r") as f:
+            return "reference_directors" in f and "velocities" in f
+    except OSError:
+        return False
+
+
 @dataclass
 class RodFrame:
     """The physical state of one rod at one frame of an earlier run.
@@ -145,18 +157,18 @@ def read_run_frame(run_dir: str | os.PathLike, frame: int = -1, field: str = "ru
     """The state of every rod at ``frame`` (an index into the saved frames, negative from the end)
     of the run in ``run_dir``: one :class:`RodFrame` per rod.
 
-    The last frame (``-1``) is read from ``checkpoint.npz`` when the run wrote one (the exact state
-    it stopped in), else from ``trajectory.h5``."""
+    Frames come from ``trajectory.h5``, which stores the whole state of every frame (the last
+    frame is the state the run ended in); for an older trajectory without velocities and frames,
+    the last frame comes from ``checkpoint.npz``."""
     d = Path(run_dir)
     if not d.is_dir():
         raise ConfigError(field, f"run directory not found: {str(d)!r}")
     ckpt = d / "checkpoint.npz"
-    if frame == -1 and ckpt.is_file():
+    traj = d / "trajectory.h5"
+    if frame == -1 and ckpt.is_file() and not _stores_state(traj):
         from knotsim.io.checkpoint import read_checkpoint
 
-        c = read_checkpoint(ckpt)
-        return c.rod_frames()
-    traj = d / "trajectory.h5"
+        return read_checkpoint(ckpt).rod_frames()
     if not traj.is_file():
         raise ConfigError(field, f"{str(d)!r} is not a run directory: it has neither checkpoint.npz nor "
                                  "trajectory.h5")

@@ -10,25 +10,21 @@ Protocols (see each module for the published set-up it reproduces):
 - ``single-rod-bend`` (:mod:`~knotsim.protocols.single_rod_bend`): ``single_rod_reef`` / ``single_rod_granny``;
 - ``two-rope-bend`` (:mod:`~knotsim.protocols.two_rope_bend`): reef/granny/thief/grief bends.
 
-Every run writes ``summary.json`` (parameters, metrics, outcome, wall time, worst penetration,
+Every run can be given any starting geometry (``geometry=``: a node file or an earlier run's
+directory) and is a run description plus metrics (:func:`build_protocol_run`). Every run writes ``summary.json`` (parameters, metrics, outcome, wall time, worst penetration,
 contact statistics) next to ``trajectory.h5`` / ``log.parquet`` / ``run.json`` when ``out_dir`` is
 given. Metrics are pure functions of the log: :mod:`knotsim.protocols.metrics`.
 """
 
-from knotsim.protocols.base import (
-    COMMON_DEFAULTS,
-    Protocol,
-    default_protocol,
-    get_protocol,
-    parse_assignments,
-    protocols,
-    resolve_params,
-    run_protocol,
-)
+from knotsim.protocols.base import LoadingProtocol, RunContext, build_protocol_run, run_protocol
+from knotsim.protocols.params import COMMON_DEFAULTS, parse_assignments, resolve_params
+from knotsim.protocols.registry import default_protocol, get_protocol, protocols
 
 __all__ = [
     "COMMON_DEFAULTS",
-    "Protocol",
+    "LoadingProtocol",
+    "RunContext",
+    "build_protocol_run",
     "default_protocol",
     "get_protocol",
     "parse_assignments",

@@ -1,20 +1,22 @@
-"""Common machinery of the loading protocols: parameters, overrides, the run, the summary.
+"""Common machinery of the loading protocols: a protocol is a run description plus metrics.
 
-A protocol (:class:`Protocol`) knows its published defaults, how to load a library knot (boundary
-conditions), what to record at every step and which strength metrics to compute. The common run
-(:func:`run_protocol`) is:
+A protocol (:class:`LoadingProtocol`) knows its published defaults, which boundary conditions load
+the knot (as run-file tables), what to record at every step and which strength metrics to compute.
+:func:`run_protocol` is the whole pipeline:
 
 1. resolve the parameters: the protocol defaults, then the knot drawing's defaults (``radius``,
    ``length``, ``n_nodes``) unless the protocol fixes them, then ``quick`` settings, then the user
-   ``overrides`` (dotted keys, e.g. ``{"mu": 0.3, "contact.delta": 1e-3, "solver.max_iterations": 40}``;
-   an unknown key raises :class:`~knotsim.errors.ConfigError` naming it);
-2. build the knot (:func:`knotsim.knots.library.get_knot`) and one :class:`~knotsim.rods.RodSpec`
-   per rope whose rest shape is straight and untwisted (only the initial shape is knotted);
-3. add the protocol's boundary conditions and a :class:`~knotsim.contact.model.ContactInteraction`;
+   ``overrides`` (dotted keys, see :mod:`knotsim.protocols.params`);
+2. the starting geometry from a library knot or any other source
+   (:mod:`knotsim.protocols.geometry`: node files, ``.mat``, an earlier run's directory); the rest
+   shape is straight and untwisted (only the initial shape is knotted);
+3. the run description (:class:`~knotsim.run.RunSpec`): rods, the protocol's boundary conditions,
+   contact, solver, duration; it is written to ``run.toml`` (and, on request, anywhere else), and
+   ``knotsim run`` replays it to the same final positions;
 4. identify the knot type at the start (:func:`knotsim.knots.topology.analyze`);
-5. run a :class:`~knotsim.simulation.Simulation` (files ``trajectory.h5``, ``log.parquet``,
-   ``run.json`` in ``out_dir``), adding the protocol's quantities to every log row; a failure of
-   the solver is recorded in the summary (``run_status``), not raised;
+5. run it through :func:`knotsim.run.build_run` (files ``trajectory.h5``, ``log.parquet``,
+   ``run.json``, ``run.toml``, ``checkpoint.npz`` in ``out_dir``), adding the protocol's quantities
+   to every log row; a failure of the solver is recorded in the summary (``run_status``), not raised;
 6. identify the knot type at the end; a change is reported in ``outcome`` (``"untied"``,
    ``"changed knot type (a -> b)"``); knots outside the table (``"unknown"``) are compared by their
    Alexander polynomial and determinant; a failed topology check is recorded, not raised;
@@ -25,186 +27,52 @@ Units: SI throughout (m, s, N, Pa, kg/m^3, Pa s).
 
 from __future__ import annotations
 
-import json
 import math
 import time
-from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from knotsim._util.jsonio import json_safe, write_json
 from knotsim.errors import ConfigError, SimulationError
+from knotsim.protocols.params import COMMON_DEFAULTS, Params, resolve_params
 
-#: Parameters every protocol accepts (value ``None`` = taken from the knot drawing or computed).
-COMMON_DEFAULTS: dict[str, Any] = {
-    "n_nodes": None,          # nodes per rope (default: the knot drawing's, 301)
-    "radius": None,           # rod radius h, m (default: the knot drawing's)
-    "length": None,           # rope length L, m (default: the knot drawing's, 1 m)
-    "youngs_modulus": 0.18e6,  # E, Pa
-    "density": 1180.0,        # rho, kg/m^3
-    "poisson_ratio": 0.5,
-    "damping": 0.01,          # viscosity eta, Pa s (force -eta v l_voronoi)
-    "gravity": 0.0,           # m/s^2 along -z (0: no gravity)
-    "mu": 0.1,                # Coulomb friction coefficient
-    "dt": 1e-3,               # target time step, s
-    "duration": None,         # simulated time, s (None: the protocol decides)
-    "output_interval": 0.1,   # trajectory frame interval, s
-}
-
-_CONTACT_KEYS = None
-_SOLVER_KEYS = None
-
-
-def _contact_keys() -> set[str]:
-    global _CONTACT_KEYS
-    if _CONTACT_KEYS is None:
-        from knotsim.contact.model import ContactSettings
-
-        _CONTACT_KEYS = {f.name for f in fields(ContactSettings)} - {"mu"}
-    return _CONTACT_KEYS
-
-
-def _solver_keys() -> set[str]:
-    global _SOLVER_KEYS
-    if _SOLVER_KEYS is None:
-        from knotsim.solver.stepper import SolverSettings
-
-        _SOLVER_KEYS = {f.name for f in fields(SolverSettings)} - {"dt"}
-    return _SOLVER_KEYS
-
-
-def parse_value(text: str) -> Any:
-    """Value of a ``--set key=value`` string: int, float, bool (``true``/``false``), ``none``, or
-    the string itself."""
-    s = text.strip()
-    low = s.lower()
-    if low in ("true", "yes", "on"):
-        return True
-    if low in ("false", "no", "off"):
-        return False
-    if low in ("none", "null"):
-        return None
-    try:
-        return int(s)
-    except ValueError:
-        pass
-    try:
-        return float(s)
-    except ValueError:
-        return s
-
-
-def parse_assignments(items) -> dict[str, Any]:
-    """``["mu=0.3", "contact.delta=1e-3"]`` -> ``{"mu": 0.3, "contact.delta": 0.001}``."""
-    out = {}
-    for item in items or ():
-        if "=" not in item:
-            raise ConfigError("set", f"expected key=value, got {item!r}")
-        k, v = item.split("=", 1)
-        k = k.strip()
-        if not k:
-            raise ConfigError("set", f"empty key in {item!r}")
-        out[k] = parse_value(v)
-    return out
-
-
-def _coerce(key: str, default: Any, value: Any) -> Any:
-    """Check ``value`` against the type of ``default`` (numbers stay numbers)."""
-    if value is None or default is None:
-        return value
-    if isinstance(default, bool):
-        if not isinstance(value, bool):
-            raise ConfigError(key, f"expected true or false, got {value!r}")
-        return value
-    if isinstance(default, int | float):
-        if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-            raise ConfigError(key, f"expected a number, got {value!r}")
-        if isinstance(default, int) and not isinstance(default, bool):
-            if float(value) != int(value):
-                raise ConfigError(key, f"expected an integer, got {value!r}")
-            return int(value)
-        return float(value)
-    if isinstance(default, str) and not isinstance(value, str):
-        raise ConfigError(key, f"expected a string, got {value!r}")
-    return value
-
-
-@dataclass
-class Params:
-    """Resolved parameters of a run: flat protocol keys plus ``contact`` and ``solver`` tables."""
-
-    values: dict[str, Any]
-    contact: dict[str, Any] = field(default_factory=dict)
-    solver: dict[str, Any] = field(default_factory=dict)
-
-    def __getitem__(self, key: str) -> Any:
-        return self.values[key]
-
-    def as_dict(self) -> dict[str, Any]:
-        d = dict(self.values)
-        d.update({f"contact.{k}": v for k, v in self.contact.items()})
-        d.update({f"solver.{k}": v for k, v in self.solver.items()})
-        return d
-
-
-def resolve_params(defaults: Mapping[str, Any], *layers: Mapping[str, Any] | None) -> Params:
-    """Apply override layers (dotted keys) on top of ``defaults`` (a flat mapping whose keys may
-    include ``contact.*`` / ``solver.*`` entries). Unknown keys raise :class:`ConfigError` naming
-    the key and listing the accepted ones."""
-    values: dict[str, Any] = {}
-    contact: dict[str, Any] = {}
-    solver: dict[str, Any] = {}
-    for k, v in defaults.items():
-        if k.startswith("contact."):
-            contact[k[8:]] = v
-        elif k.startswith("solver."):
-            solver[k[7:]] = v
-        else:
-            values[k] = v
-    for layer in layers:
-        for key, val in (layer or {}).items():
-            if not isinstance(key, str):
-                raise ConfigError(str(key), "override keys must be strings")
-            if key in ("contact.mu",):
-                key = "mu"
-            if key.startswith("contact."):
-                sub = key[8:]
-                if sub not in _contact_keys():
-                    raise ConfigError(key, f"unknown contact setting; known: "
-                                           f"{', '.join('contact.' + s for s in sorted(_contact_keys()))}")
-                contact[sub] = val
-            elif key.startswith("solver."):
-                sub = key[7:]
-                if sub not in _solver_keys():
-                    raise ConfigError(key, f"unknown solver setting; known: "
-                                           f"{', '.join('solver.' + s for s in sorted(_solver_keys()))}")
-                solver[sub] = val
-            elif key in values:
-                values[key] = _coerce(key, defaults.get(key), val)
-            else:
-                raise ConfigError(key, f"unknown parameter; known: {', '.join(sorted(values))}, "
-                                       "contact.<setting>, solver.<setting>")
-    return Params(values, contact, solver)
+__all__ = ["LoadingProtocol", "RunContext", "build_protocol_run", "run_protocol"]
 
 
 @dataclass
 class RunContext:
-    """Everything a protocol needs while setting up and recording a run."""
+    """Everything a protocol needs while describing and recording a run.
+
+    ``bc`` is the list of boundary-condition tables (run-file form, see ``docs/run-files.md``) the
+    protocol's :meth:`LoadingProtocol.setup` appends to; ``model`` is set once the run is built
+    (for :meth:`LoadingProtocol.prepare` and :meth:`LoadingProtocol.record`)."""
 
     params: Params
-    geometry: Any  # KnotGeometry
-    model: Any  # Model
-    bcs: Any  # BoundaryConditions
+    geometry: Any  # ProtocolGeometry
     EI: float  # N m^2 (of the first rope)
     radius: float  # m
     length: float  # m
+    bc: list[dict] = field(default_factory=list)
+    model: Any = None
     data: dict[str, Any] = field(default_factory=dict)  # protocol scratch space (axis, groups, ...)
 
+    def add_bc(self, kind: str, name: str, **keys: Any) -> None:
+        """Append a boundary condition ``{"type": kind, "name": name, **keys}`` (run-file keys:
+        ``rod``, ``nodes`` (local indices), ``velocity``, ``waypoints``, ``force``, ``ramp``, ``start``,
+        ``stop``, ``twist``)."""
+        table = {"type": kind, "name": name}
+        for k, v in keys.items():
+            if v is None:
+                continue
+            table[k] = v.tolist() if isinstance(v, np.ndarray) else v
+        self.bc.append(table)
 
-class Protocol:
+
+class LoadingProtocol:
     """Base class of a loading protocol (subclasses set the class attributes and hooks)."""
 
     #: Name used by :func:`run_protocol` and the CLI.
@@ -216,7 +84,7 @@ class Protocol:
     #: Default knot.
     default_knot: str = ""
     #: Protocol-specific defaults (flat, may contain ``contact.*``/``solver.*`` keys), applied on
-    #: top of :data:`COMMON_DEFAULTS`.
+    #: top of :data:`~knotsim.protocols.params.COMMON_DEFAULTS`.
     defaults: dict[str, Any] = {}
     #: Keys whose protocol default wins over the knot drawing's defaults.
     fixed_geometry: tuple[str, ...] = ()
@@ -225,8 +93,12 @@ class Protocol:
 
     # -- hooks ---------------------------------------------------------------------------
     def setup(self, ctx: RunContext) -> None:
-        """Add boundary conditions to ``ctx.bcs`` (and anything else to ``ctx.data``)."""
+        """Append the boundary conditions to ``ctx.bc`` (with :meth:`RunContext.add_bc`) and put
+        anything the other hooks need in ``ctx.data``."""
         raise NotImplementedError
+
+    def prepare(self, ctx: RunContext) -> None:
+        """Called once ``ctx.model`` exists, before the run (default: nothing)."""
 
     def duration(self, ctx: RunContext) -> float:
         """Simulated time, s (used when the ``duration`` parameter is ``None``)."""
@@ -255,42 +127,6 @@ class Protocol:
         return topo.get("signature")
 
 
-_REGISTRY: dict[str, Protocol] = {}
-
-
-def register(protocol: Protocol) -> Protocol:
-    """Add a protocol instance to the registry (by its ``name``)."""
-    _REGISTRY[protocol.name] = protocol
-    return protocol
-
-
-def protocols() -> dict[str, Protocol]:
-    """Registered protocols by name."""
-    from knotsim.protocols import overhand_pull, single_rod_bend, two_rope_bend  # noqa: F401
-
-    return dict(_REGISTRY)
-
-
-def get_protocol(name: str) -> Protocol:
-    """Protocol called ``name``; :class:`ConfigError` listing the known ones otherwise."""
-    reg = protocols()
-    if name not in reg:
-        raise ConfigError("protocol", f"unknown protocol {name!r}; known: {', '.join(sorted(reg))}")
-    return reg[name]
-
-
-def default_protocol(knot: str) -> str:
-    """Name of the protocol used for ``knot`` (a library name or a drawing path) from its kind."""
-    from knotsim.knots.library import load_knot_spec
-
-    kind = load_knot_spec(knot).kind
-    for p in protocols().values():
-        if kind in p.kinds:
-            return p.name
-    raise ConfigError("protocol", f"no default protocol for knot kind {kind!r} of {knot!r}; choose one of "
-                                  f"{', '.join(sorted(protocols()))}")
-
-
 # ------------------------------------------------------------------------------------------
 def _topology(curves, closed, pairing) -> dict[str, Any]:
     from knotsim.knots.topology import analyze
@@ -312,7 +148,7 @@ def _topology(curves, closed, pairing) -> dict[str, Any]:
             "closure_errors": errors or None, "error": None}
 
 
-def topology_keys(proto: Protocol, ctx: RunContext, start: dict, end: dict) -> tuple[str | None, str | None]:
+def topology_keys(proto: LoadingProtocol, ctx: RunContext, start: dict, end: dict) -> tuple[str | None, str | None]:
     """The start and end keys compared for "knot type unchanged" (see :meth:`Protocol.topology_key`).
 
     When one side is a knot outside the table (``"unknown"``: the simplified diagram was not
@@ -327,31 +163,6 @@ def topology_keys(proto: Protocol, ctx: RunContext, start: dict, end: dict) -> t
     if start.get("alexander") is None or end.get("alexander") is None:
         return k0, k1
     return tuple(f"Alexander {t['alexander']}, det {t['determinant']}" for t in (start, end))
-
-
-def _json_default(obj):
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.floating):
-        return float(obj)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, Path):
-        return str(obj)
-    return str(obj)
-
-
-def _clean(obj):
-    """Replace non-finite floats by None (strict JSON)."""
-    if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, float | np.floating):
-        return float(obj) if math.isfinite(obj) else None
-    return obj
 
 
 def contact_stats(log: pd.DataFrame) -> dict[str, Any]:
@@ -374,9 +185,94 @@ def contact_stats(log: pd.DataFrame) -> dict[str, Any]:
     }
 
 
+def _geometry_keys(p: Params, geo) -> None:
+    p.values["n_nodes"] = int(len(geo.ropes[0]))
+    p.values["radius"] = float(geo.radius)
+    p.values["length"] = float(geo.length)
+
+
+def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | None = None,
+                       overrides: dict | None = None, quick: bool = False):
+    """The run description of protocol ``name`` on a library ``knot`` or on ``geometry`` (a node
+    file or an earlier run's directory; see :mod:`knotsim.protocols.geometry`).
+
+    Returns ``(protocol, ctx, spec, notes)``: the protocol, its :class:`RunContext`, the complete
+    :class:`~knotsim.run.RunSpec` and a list of notes for the user (e.g. quick settings that were
+    not applied because the geometry fixes the node count)."""
+    from knotsim.protocols.geometry import geometry_from_library, geometry_from_source
+    from knotsim.protocols.registry import get_protocol
+    from knotsim.rods import RodSpec
+    from knotsim.run import RunSpec
+
+    proto = get_protocol(name)
+    notes: list[str] = []
+    defaults = dict(COMMON_DEFAULTS)
+    defaults.update(proto.defaults)
+    templates = dict(defaults)
+    templates.update({"n_nodes": 301, "radius": 1.0, "length": 1.0, "duration": 1.0})
+    templates.update({k: 1.0 for k, v in proto.defaults.items() if v is None})  # numeric unless given
+    quick_layer = dict(proto.quick) if quick else None
+    if geometry is None:
+        from knotsim.knots.library import load_knot_spec
+
+        knot = knot or proto.default_knot
+        spec = load_knot_spec(knot)
+        knot_defaults = {k: v for k, v in spec.defaults.items() if k in ("radius", "length", "n_nodes")
+                         and k not in proto.fixed_geometry}
+        params = resolve_params(templates, defaults, knot_defaults, quick_layer, overrides)
+        geo = geometry_from_library(knot, n_nodes=params["n_nodes"], radius=params["radius"],
+                                    length=params["length"])
+    else:
+        for key in ("n_nodes", "length"):
+            if quick_layer and key in quick_layer:
+                notes.append(f"--quick: {key} = {quick_layer.pop(key)} not applied (the geometry fixes {key})")
+            if overrides and key in overrides:
+                raise ConfigError(key, f"the geometry {geometry!r} fixes {key}; it cannot be set")
+        params = resolve_params(templates, defaults, quick_layer, overrides)
+        geo = geometry_from_source(geometry, radius=params["radius"])
+        if geo.kind == "run" and overrides and "radius" in overrides and overrides["radius"] != geo.radius:
+            raise ConfigError("radius", f"the run {geometry!r} was computed with radius {geo.radius} m; "
+                                        "continuing it with another radius is not the same rope")
+    _geometry_keys(params, geo)
+    p = params
+    rods = []
+    for r, (x, rname) in enumerate(zip(geo.ropes, geo.rope_names, strict=True)):
+        table = {"name": rname, "shape": "points", "positions": np.asarray(x, float).tolist(), "radius": geo.radius,
+                 "youngs_modulus": float(p["youngs_modulus"]), "density": float(p["density"]),
+                 "poisson_ratio": float(p["poisson_ratio"])}
+        if geo.state:
+            for key, val in geo.state[r].items():
+                if val is not None:
+                    table[key] = np.asarray(val, float).tolist()
+        rods.append(table)
+    ei = RodSpec(np.asarray(geo.ropes[0], float), radius=geo.radius, youngs_modulus=float(p["youngs_modulus"]),
+                 density=float(p["density"]), poisson_ratio=float(p["poisson_ratio"])).EI
+    ctx = RunContext(params=p, geometry=geo, EI=ei, radius=geo.radius, length=geo.length)
+    proto.setup(ctx)
+    duration = p["duration"] if p["duration"] is not None else proto.duration(ctx)
+    if not (isinstance(duration, int | float) and duration > 0 and math.isfinite(duration)):
+        raise ConfigError("duration", f"must be a positive time in s, got {duration!r}")
+    p.values["duration"] = float(duration)
+    contact = {"mu": p["mu"], **p.contact}
+    solver = {"dt": float(p["dt"]), **p.solver}
+    data = {
+        "description": f"{proto.name} on {geo.name}",
+        "provenance": {"protocol": proto.name, "knot": geo.name, "geometry": geo.source,
+                       "parameters": {k: v for k, v in p.as_dict().items() if v is not None}},
+        "rods": rods,
+        "model": {"gravity": [0.0, 0.0, -float(p["gravity"])], "damping": float(p["damping"])},
+        "bc": ctx.bc,
+        "contact": contact,
+        "solver": solver,
+        "run": {"duration": float(duration), "output_interval": float(p["output_interval"])},
+    }
+    return proto, ctx, RunSpec.from_dict(data), notes
+
+
 def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: dict | None = None,
-                 progress: bool = False, quick: bool = False) -> dict:
-    """Run loading protocol ``name`` on ``knot`` and return its summary (a JSON-able dict).
+                 progress: bool = False, quick: bool = False, geometry: str | None = None,
+                 save_config=None) -> dict:
+    """Run loading protocol ``name`` on ``knot`` (or on ``geometry``) and return its summary.
 
     Parameters
     ----------
@@ -384,69 +280,42 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
         ``"overhand-pull"``, ``"single-rod-bend"`` or ``"two-rope-bend"``.
     knot:
         Library knot name or drawing path (default: the protocol's default knot).
+    geometry:
+        Instead of ``knot``: a node file (text ``x y z [theta]``, ``.csv``, ``.npy``, ``.mat``) or an
+        earlier run's output directory (the run continues from its last state).
     out_dir:
-        Directory for ``trajectory.h5``, ``log.parquet``, ``run.json`` and ``summary.json``
-        (``None``: nothing is written).
+        Directory for ``trajectory.h5``, ``log.parquet``, ``run.json``, ``run.toml``,
+        ``checkpoint.npz`` and ``summary.json`` (``None``: nothing is written).
     overrides:
-        Dotted parameter overrides (see :func:`resolve_params`; ``run_protocol(..., overrides=
-        {"mu": 0.3})``). Unknown keys raise :class:`ConfigError`.
+        Dotted parameter overrides (``{"mu": 0.3, "contact.delta": 1e-3}``). Unknown keys raise
+        :class:`ConfigError`.
     progress:
         Show a progress bar.
     quick:
         Coarse, short settings (the protocol's ``quick`` overrides, applied before ``overrides``).
+    save_config:
+        Also write the complete run description to this file (``knotsim run FILE`` replays it).
 
     Returns
     -------
     dict with ``protocol``, ``knot``, ``parameters``, ``metrics``, ``outcome``, ``run_status``,
-    ``topology`` (start/end), ``contact`` (statistics incl. ``worst_penetration_ratio``, the
-    largest penetration over the run as a fraction of h), ``wall_time`` (s), ``sim_time`` (s),
-    ``n_steps``, ``failed_attempts``, and ``log`` is not included (read ``log.parquet``).
+    ``topology`` (start/end), ``contact`` (statistics incl. ``worst_penetration_ratio``), ``wall_time``
+    (s), ``sim_time`` (s), ``n_steps``, ``failed_attempts``, ``notes``.
     """
-    from knotsim.bc import BoundaryConditions
-    from knotsim.contact.model import ContactInteraction, ContactSettings
-    from knotsim.knots.library import get_knot, load_knot_spec
-    from knotsim.rods import Model, RodSpec
-    from knotsim.simulation import Simulation
-    from knotsim.solver.stepper import SolverSettings
-
-    proto = get_protocol(name)
-    knot = knot or proto.default_knot
-    spec = load_knot_spec(knot)
-    defaults = dict(COMMON_DEFAULTS)
-    defaults.update(proto.defaults)
-    knot_defaults = {k: v for k, v in spec.defaults.items() if k in ("radius", "length", "n_nodes")
-                     and k not in proto.fixed_geometry}
-    # type templates for the geometry keys (their common default is None)
-    templates = dict(defaults)
-    templates.update({"n_nodes": 301, "radius": 1.0, "length": 1.0, "duration": 1.0})
-    templates.update({k: 1.0 for k, v in proto.defaults.items() if v is None})  # numeric unless given
-    params = resolve_params(templates, defaults, knot_defaults, proto.quick if quick else None, overrides)
+    from knotsim.protocols.metrics import knot_status
+    from knotsim.run import build_run
 
     wall0 = time.perf_counter()
-    p = params
-    geo = get_knot(knot, n_nodes=p["n_nodes"], radius=p["radius"], length=p["length"])
-    p.values["n_nodes"] = int(len(geo.ropes[0]))
-    p.values["radius"] = float(geo.radius)
-    p.values["length"] = float(geo.length)
-    rods = [RodSpec(np.array(x, dtype=float), radius=geo.radius, youngs_modulus=float(p["youngs_modulus"]),
-                    density=float(p["density"]), poisson_ratio=float(p["poisson_ratio"]), name=rname)
-            for x, rname in zip(geo.ropes, geo.rope_names, strict=True)]
-    model = Model(rods, gravity=(0.0, 0.0, -float(p["gravity"])), damping=float(p["damping"]))
-    bcs = BoundaryConditions(model)
-    ctx = RunContext(params=p, geometry=geo, model=model, bcs=bcs, EI=rods[0].EI, radius=geo.radius,
-                     length=geo.length)
-    proto.setup(ctx)
-    csettings = ContactSettings(mu=p["mu"], **p.contact)
-    contact = ContactInteraction(model, csettings)
-    ssettings = SolverSettings(dt=float(p["dt"]), **p.solver)
-    duration = p["duration"] if p["duration"] is not None else proto.duration(ctx)
-    p.values["duration"] = float(duration)
-    if not duration > 0:
-        raise ConfigError("duration", f"must be a positive time in s, got {duration!r}")
+    proto, ctx, spec, notes = build_protocol_run(name, knot, geometry=geometry, overrides=overrides, quick=quick)
+    if save_config is not None:
+        spec.save(save_config, header=f"knotsim pull: {spec.data['description']}; replay with "
+                                      f"knotsim run {Path(save_config).name} -o OUT")
+    sim, cfg = build_run(spec)
+    ctx.model = cfg.model
+    proto.prepare(ctx)
+    geo = ctx.geometry
+    p = ctx.params
     topo_start = _topology(*proto.closure(ctx, [np.array(x) for x in geo.ropes]))
-
-    sim = Simulation(model, bcs, ssettings, interactions=[contact])
-    # record the initial state as a first row-free reference for the protocol
     ctx.data["q0"] = sim.state.q.copy()
 
     def callback(s, res):
@@ -454,20 +323,18 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
 
     run_status = "completed"
     out = Path(out_dir) if out_dir is not None else None
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
+    t_start = float(sim.state.time)
     try:
-        sim.run(float(duration), output_dir=out, output_interval=float(p["output_interval"]),
-                progress=progress, callback=callback)
+        sim.run(cfg.duration, output_dir=out, output_interval=cfg.output_interval, progress=progress,
+                callback=callback)
     except SimulationError as exc:
         run_status = f"failed at t = {sim.state.time:.4g} s: {exc}"
     log = sim.log()
+    model = cfg.model
     curves = [model.rod_positions(sim.state.q, r) for r in range(model.n_rods)]
     topo_end = _topology(*proto.closure(ctx, curves))
     metrics = proto.metrics(ctx, log) if len(log) else {}
     slipped = proto.slipped(ctx, metrics)
-    from knotsim.protocols.metrics import knot_status
-
     status = knot_status(*topology_keys(proto, ctx, topo_start, topo_end), slipped)
     if status == "changed knot type":
         outcome = f"changed knot type ({topo_start['signature']} -> {topo_end['signature']})"
@@ -479,13 +346,13 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
         outcome = status
     if run_status != "completed":
         outcome = f"{outcome}; simulation stopped early"
-    wall = time.perf_counter() - wall0
     import knotsim
 
     summary = {
         "protocol": proto.name,
         "knot": geo.name,
         "knot_kind": geo.kind,
+        "geometry": geo.source,
         "parameters": p.as_dict(),
         "EI": ctx.EI,
         "metrics": metrics,
@@ -494,17 +361,18 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
         "run_status": run_status,
         "topology": {"start": topo_start, "end": topo_end},
         "contact": contact_stats(log),
-        "wall_time": wall,
-        "sim_time": float(sim.state.time),
+        "wall_time": time.perf_counter() - wall0,
+        "sim_time": float(sim.state.time - t_start),
         "n_steps": int(len(log)),
         "newton_iterations": int(log["iterations"].sum()) if len(log) else 0,
         "failed_attempts": int(sim.n_failures),
+        "notes": notes,
         "knotsim_version": knotsim.__version__,
         "out_dir": str(out) if out is not None else None,
     }
-    summary = _clean(summary)
+    summary = json_safe(summary)
     if out is not None:
-        (out / "summary.json").write_text(json.dumps(summary, indent=2, default=_json_default), encoding="utf-8")
+        write_json(out / "summary.json", summary)
     return summary
 
 

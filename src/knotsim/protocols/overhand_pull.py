@@ -1,5 +1,5 @@
 """Protocol ``overhand-pull``: tightening of an open overhand knot (Choi, Tong & Jawed 2021;
-physics-notes 4.1).
+docs/physics.md §4.1).
 
 One rod (``L = 1 m``, ``N = 301``, ``h = 1.6 mm``, ``rho = 1180 kg/m^3``, ``E = 0.18 MPa``,
 Poisson 0.5, ``eta = 0.01 Pa s``, ``mu = 0.1``, ``dt = 0.5 ms``) tied as a loose overhand knot
@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from knotsim.protocols.base import Protocol, RunContext, register, unit
+from knotsim.protocols.base import LoadingProtocol, RunContext, unit
 from knotsim.protocols.metrics import force_at, moving_average, slip_onset, window_mean, window_peak
 
 
@@ -43,7 +43,7 @@ def force_drop(log) -> dict | None:
                       smooth=0.5, t0=t_skip)
 
 
-class OverhandPull(Protocol):
+class OverhandPull(LoadingProtocol):
     name = "overhand-pull"
     description = "Tighten an open overhand knot by pulling both clamped ends apart (Choi et al. 2021)"
     kinds = ("overhand",)
@@ -67,8 +67,8 @@ class OverhandPull(Protocol):
         v = float(ctx.params["pull_speed"])
         ctx.data["axis"] = axis
         ctx.data["e0"] = ctx.length - float(np.linalg.norm(x[-1] - x[0]))
-        ctx.bcs.move("pull_start", rod=0, nodes=[0, 1], path=list(-v * axis))
-        ctx.bcs.move("pull_end", rod=0, nodes=[-2, -1], path=list(v * axis))
+        ctx.add_bc("move", "pull_start", rod=0, nodes=[0, 1], velocity=list(-v * axis))
+        ctx.add_bc("move", "pull_end", rod=0, nodes=[-2, -1], velocity=list(v * axis))
 
     def duration(self, ctx: RunContext) -> float:
         e0 = ctx.data["e0"]
@@ -104,5 +104,3 @@ class OverhandPull(Protocol):
         })
         return out
 
-
-register(OverhandPull())

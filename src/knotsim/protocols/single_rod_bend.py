@@ -1,4 +1,4 @@
-"""Protocol ``single-rod-bend``: reef and granny tied in one rod (MAE259B report; physics-notes 4.2).
+"""Protocol ``single-rod-bend``: reef and granny tied in one rod (MAE259B report; docs/physics.md §4.2).
 
 One rod (``E = 0.18 MPa``, ``h = 2 mm``, ``L = 1 m``, ``rho = 1180 kg/m^3``, ``N = 301``,
 ``dt = 2.5 ms``, contact ``delta = 5e-4 m``, ``nu = 1e-4 m/s``, default ``mu = 0.1``) tied as
@@ -40,7 +40,7 @@ import math
 import numpy as np
 
 from knotsim.errors import ConfigError
-from knotsim.protocols.base import Protocol, RunContext, register, stage_duration, unit
+from knotsim.protocols.base import LoadingProtocol, RunContext, stage_duration, unit
 from knotsim.protocols.metrics import moving_average, slip_onset, window_mean, window_peak
 
 #: Times (s) at which F h^2/EI was read off the published figure.
@@ -55,7 +55,7 @@ def pre_pull_time(params) -> float:
     return 0.5 * stage_duration(params["pre_pull"], v, "pre_pull", "pre_pull_speed")
 
 
-class SingleRodBend(Protocol):
+class SingleRodBend(LoadingProtocol):
     name = "single-rod-bend"
     description = "Pull the two ends of a one-rod reef/granny apart, bottom of the first overhand held (MAE259B)"
     kinds = ("single_rod_bend",)
@@ -94,16 +94,14 @@ class SingleRodBend(Protocol):
         ctx.data["t_pre"] = t_pre
         if t_pre > 0:
             v_pre = float(ctx.params["pre_pull_speed"] or v)
-
-            def travel(t, v=v, v_pre=v_pre, t_pre=t_pre):
-                """Distance (m) one end has moved after ``t`` s: fast pre-tightening, then the pull."""
-                return v_pre * min(t, t_pre) + v * max(t - t_pre, 0.0)
-
-            ctx.bcs.move("pull_start", rod=0, nodes=[0, 1], path=lambda t: -travel(t) * axis, twist=twist)
-            ctx.bcs.move("pull_end", rod=0, nodes=[-2, -1], path=lambda t: travel(t) * axis, twist=twist)
+            # each end: pre-tightening at v_pre for t_pre, then the measured pull at v
+            for gname, nodes, sign in (("pull_start", [0, 1], -1.0), ("pull_end", [-2, -1], 1.0)):
+                ctx.add_bc("move", gname, rod=0, nodes=nodes, twist=twist, waypoints={
+                    "times": [0.0, t_pre], "points": [[0.0, 0.0, 0.0], list(sign * v_pre * t_pre * axis)],
+                    "then_velocity": list(sign * v * axis)})
         else:
-            ctx.bcs.move("pull_start", rod=0, nodes=[0, 1], path=list(-v * axis), twist=twist)
-            ctx.bcs.move("pull_end", rod=0, nodes=[-2, -1], path=list(v * axis), twist=twist)
+            ctx.add_bc("move", "pull_start", rod=0, nodes=[0, 1], velocity=list(-v * axis), twist=twist)
+            ctx.add_bc("move", "pull_end", rod=0, nodes=[-2, -1], velocity=list(v * axis), twist=twist)
         width = ctx.params["hold_nodes"]
         if not (isinstance(width, int) and width >= 1 and width % 2 == 1):
             raise ConfigError("hold_nodes", f"must be an odd number of nodes >= 1, got {width!r}")
@@ -113,7 +111,7 @@ class SingleRodBend(Protocol):
         ht = ctx.params["hold_time"]
         hold_time = math.inf if ht is None else float(ht)
         if held and hold_time > 0:
-            ctx.bcs.hold("knot_hold", rod=0, nodes=held, stop=None if math.isinf(hold_time) else hold_time)
+            ctx.add_bc("hold", "knot_hold", rod=0, nodes=held, stop=None if math.isinf(hold_time) else hold_time)
         ctx.data["held_nodes"] = held
 
     def duration(self, ctx: RunContext) -> float:
@@ -161,5 +159,3 @@ class SingleRodBend(Protocol):
     def slipped(self, ctx: RunContext, metrics: dict) -> bool:
         return metrics.get("slip_onset") is not None
 
-
-register(SingleRodBend())

@@ -1,5 +1,5 @@
 """Protocol ``two-rope-bend``: bends tied between two ropes (Patil et al., Science 2020;
-physics-notes 4.3).
+docs/physics.md §4.3).
 
 Reef, granny, thief and grief bends (``reef_bend``, ``granny_bend``, ``thief_bend``,
 ``grief_bend``; ``h = 2 mm``, ``L = 1 m`` per rope, ``N = 301``). Loading as in Patil's study: the
@@ -65,7 +65,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from knotsim.errors import ConfigError
-from knotsim.protocols.base import Protocol, RunContext, end_group_nodes, register, stage_duration, unit
+from knotsim.protocols.base import LoadingProtocol, RunContext, end_group_nodes, stage_duration, unit
+from knotsim.protocols.geometry import default_ends, parse_end
 from knotsim.protocols.metrics import (
     draw_in_onset,
     moving_average,
@@ -218,7 +219,7 @@ def pre_tighten_time(params) -> float:
     return stage_duration(params["pre_tighten"], params["pre_tighten_speed"], "pre_tighten", "pre_tighten_speed")
 
 
-class TwoRopeBend(Protocol):
+class TwoRopeBend(LoadingProtocol):
     name = "two-rope-bend"
     description = "Hold one end of rope A, pull the far end of rope B, tails free (Patil et al. 2020)"
     kinds = ("bend",)
@@ -227,6 +228,8 @@ class TwoRopeBend(Protocol):
         "mu": 0.3,
         "dt": 2e-3,  # s; no published value
         "mode": "displacement",
+        "held_end": None,      # "ROPE:NODE" of the held end (None: the knot's hint, or rope 0's first node)
+        "pulled_end": None,    # "ROPE:NODE" of the pulled end (None: the knot's hint, or rope 1's first node)
         "pull_speed": 0.01,    # m/s (displacement mode)
         "pull_length": 0.4,    # m pulled in displacement mode when no duration is given
         "pre_tighten": 0.0,    # m each of the four ends moves outwards first (0: no cinching stage)
@@ -244,12 +247,17 @@ class TwoRopeBend(Protocol):
         geo = ctx.geometry
         if len(geo.ropes) != 2:
             raise ConfigError("knot", f"two-rope-bend needs a knot of two ropes, {geo.name!r} has {len(geo.ropes)}")
-        if not geo.held or not geo.pulled:
-            raise ConfigError("knot", f"knot {geo.name!r} has no [loading] held/pulled hints")
+        hint_held, hint_pulled = default_ends(geo)
+        he, pe = ctx.params["held_end"], ctx.params["pulled_end"]
+        held_list = (parse_end(he, geo, "held_end"),) if he is not None else hint_held
+        pulled_list = (parse_end(pe, geo, "pulled_end"),) if pe is not None else hint_pulled
+        if not held_list or not pulled_list:
+            raise ConfigError("knot", f"knot {geo.name!r} has no [loading] held/pulled hints; give held_end and "
+                                      "pulled_end (ROPE:NODE)")
         mode = ctx.params["mode"]
         if mode not in ("displacement", "force"):
             raise ConfigError("mode", f"must be 'displacement' or 'force', got {mode!r}")
-        held, pulled = geo.held[0], geo.pulled[0]
+        held, pulled = held_list[0], pulled_list[0]
         if held.rope == pulled.rope:
             raise ConfigError("knot", "the held and pulled ends must be on different ropes")
         n = len(geo.ropes[0])
@@ -272,38 +280,43 @@ class TwoRopeBend(Protocol):
                 inner = min(5, len(x) - 1)
                 return unit(x[node] - x[inner if node == 0 else len(x) - 1 - inner])
 
-            def pre(t, d, v_pre=v_pre, t_pre=t_pre):
-                return v_pre * min(t, t_pre) * d
+            def pre(d, then=None):
+                """Waypoints: out along ``d`` at v_pre for t_pre, then at ``then`` (m/s) or still."""
+                w = {"times": [0.0, t_pre], "points": [[0.0, 0.0, 0.0], list(v_pre * t_pre * d)]}
+                if then is not None:
+                    w["then_velocity"] = list(then)
+                return w
 
             d_held = outward(held.rope, held.node)
             d_pull = outward(pulled.rope, pulled.node)
-            ctx.bcs.move("held", rod=held.rope, nodes=held_nodes, path=lambda t, d=d_held: pre(t, d))
+            ctx.add_bc("move", "held", rod=held.rope, nodes=held_nodes, waypoints=pre(d_held))
             for name, (rope, end) in zip(("tail_a", "tail_b"), free_tail_ends(held, pulled), strict=True):
                 node = 0 if end == 0 else n - 1
-                d_tail = outward(rope, node)
-                ctx.bcs.move(f"pre_{name}", rod=rope, nodes=end_group_nodes(node, n),
-                             path=lambda t, d=d_tail: pre(t, d), stop=t_pre)
+                ctx.add_bc("move", f"pre_{name}", rod=rope, nodes=end_group_nodes(node, n),
+                           waypoints=pre(outward(rope, node)), stop=t_pre)
         else:
-            ctx.bcs.clamp("held", rod=held.rope, nodes=held_nodes)
+            ctx.add_bc("clamp", "held", rod=held.rope, nodes=held_nodes)
             d_pull = axis
         if mode == "displacement":
             v = float(ctx.params["pull_speed"])
             if t_pre > 0:
-                ctx.bcs.move("pull", rod=pulled.rope, nodes=pull_nodes,
-                             path=lambda t, d=d_pull, v=v: pre(t, d) + v * max(t - t_pre, 0.0) * axis)
+                ctx.add_bc("move", "pull", rod=pulled.rope, nodes=pull_nodes, waypoints=pre(d_pull, v * axis))
             else:
-                ctx.bcs.move("pull", rod=pulled.rope, nodes=pull_nodes, path=list(v * axis))
+                ctx.add_bc("move", "pull", rod=pulled.rope, nodes=pull_nodes, velocity=list(v * axis))
         else:
             rate = float(ctx.params["force_rate"])
             if t_pre > 0:
-                ctx.bcs.move("pre_pull", rod=pulled.rope, nodes=pull_nodes, path=lambda t, d=d_pull: pre(t, d),
-                             stop=t_pre)
-            ctx.bcs.force("pull", rod=pulled.rope, nodes=pull_nodes, start=t_pre,
-                          force=lambda t, a=axis, r=rate: r * max(t - t_pre, 0.0) * a)
-        ctx.data["pull_nodes"] = ctx.model.global_nodes(pulled.rope, pull_nodes)
+                ctx.add_bc("move", "pre_pull", rod=pulled.rope, nodes=pull_nodes, waypoints=pre(d_pull), stop=t_pre)
+            ctx.add_bc("force", "pull", rod=pulled.rope, nodes=pull_nodes, start=t_pre,
+                       ramp={"from": [0.0, 0.0, 0.0], "rate": list(rate * axis)})
+        ctx.data["pull_local"] = (pulled.rope, pull_nodes)
         ctx.data["x_pull0"] = np.mean([geo.ropes[pulled.rope][i] for i in pull_nodes], axis=0)
         ctx.data["free_ends"] = free_tail_ends(held, pulled)
         ctx.data["ends_interleaved"] = ends_interleaved(geo.ropes, [(held.rope, held.node), (pulled.rope, pulled.node)])
+
+    def prepare(self, ctx: RunContext) -> None:
+        rope, nodes = ctx.data["pull_local"]
+        ctx.data["pull_nodes"] = ctx.model.global_nodes(rope, nodes)
 
     def duration(self, ctx: RunContext) -> float:
         """Default run length (s): ``pull_length / pull_speed`` in displacement control (400 mm of
@@ -395,5 +408,3 @@ class TwoRopeBend(Protocol):
     def slipped(self, ctx: RunContext, metrics: dict) -> bool:
         return metrics.get("slip_onset") is not None
 
-
-register(TwoRopeBend())

@@ -74,25 +74,28 @@ class TyingResult:
     positions: np.ndarray | None = field(repr=False, default=None)
 
 
-def tie_from_straight(name: str, out_dir=None, overrides: dict | None = None) -> TyingResult:
+def tie_from_straight(name: str, out_dir=None, overrides: dict | None = None,
+                      progress: bool | None = None) -> TyingResult:
     """Run the shipped tying sequence ``name`` from the straight rod and identify the knot.
 
     ``overrides`` is merged into the configuration dict (e.g. ``{"run": {"output_interval": 0.1}}``).
-    With ``out_dir`` the run files (trajectory, log, run.json) are written there. The knot type is
-    :func:`knotsim.knots.topology.analyze` of the final centreline with its far-away closure.
+    With ``out_dir`` the run files (trajectory, log, run.json, run.toml, checkpoint.npz) are
+    written there, so that ``knotsim pull --geometry OUT_DIR`` loads the tied knot next. The knot
+    type is :func:`knotsim.knots.topology.analyze` of the final centreline with its far-away
+    closure. The sequence runs through the one run builder (:func:`knotsim.run.run`).
     """
-    from knotsim.io.config import build_simulation, load_config
     from knotsim.knots.topology import analyze
+    from knotsim.run import RunSpec, run
 
     cfg = load_tying_config(name)
     if overrides:
         cfg = _merge(cfg, overrides)
-    rc = load_config(cfg, base_dir=tying_sequence_path(name).parent)
-    sim = build_simulation(rc)
+    cfg.setdefault("provenance", {}).update({"tying_sequence": name})
     t0 = time.perf_counter()
-    log = sim.run(rc.duration, output_dir=out_dir, output_interval=rc.output_interval)
+    res = run(RunSpec(cfg, tying_sequence_path(name).parent), out_dir, progress=progress)
     wall = time.perf_counter() - t0
-    x = rc.model.node_positions(sim.state.q)
+    sim, log = res.simulation, res.log
+    x = sim.model.node_positions(sim.state.q)
     topo = analyze([x])
     exp = EXPECTED.get(name, ())
     pen = float(log["max_penetration_ratio"].max()) if "max_penetration_ratio" in log else 0.0

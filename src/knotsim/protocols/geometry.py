@@ -1,0 +1,172 @@
+"""The starting geometry of a protocol run, from any source: a library knot (name or drawing file),
+a node file (text ``x y z [theta]``, ``.csv``, ``.npy``, ``.mat``) or an earlier run's directory.
+
+Every protocol sees the same record, :class:`ProtocolGeometry`: the ropes' node positions, their
+names, radius and length, and the loading hints (which rope ends are held and pulled; from the
+drawing, or given by the protocol's parameters, or the rope ends by default). A frame of an earlier
+run also brings its velocities and material frames, so the run continues physically.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from knotsim.errors import ConfigError, GeometryError
+
+__all__ = ["ProtocolGeometry", "geometry_from_library", "geometry_from_source", "is_library_knot"]
+
+
+@dataclass(frozen=True)
+class EndRef:
+    """A node of the geometry: rope index and node index (``node`` >= 0)."""
+
+    rope: int
+    node: int
+
+
+@dataclass
+class ProtocolGeometry:
+    """Geometry handed to a protocol.
+
+    ``ropes``: one ``(N, 3)`` array per rope (m); ``rope_names``; ``radius`` h (m); ``length``: arc
+    length of the first rope (m); ``held`` / ``pulled``: :class:`EndRef` loading hints;
+    ``name`` and ``kind`` (the drawing's, or ``"nodes"`` / ``"run"``); ``source``: where it came from;
+    ``state``: per rope ``{"velocities", "edge_angles", "reference_directors"}`` arrays for a run
+    frame, else empty; ``protocol_hint``: the protocol that produced a run frame (from its
+    ``run.toml``), else ``None``.
+    """
+
+    name: str
+    kind: str
+    ropes: list[np.ndarray]
+    rope_names: list[str]
+    radius: float
+    length: float
+    held: tuple = ()
+    pulled: tuple = ()
+    source: str = ""
+    state: list[dict] = field(default_factory=list)
+    protocol_hint: str | None = None
+    knot_hint: str | None = None
+
+
+def is_library_knot(name: str) -> bool:
+    """Whether ``name`` is a library knot name or a drawing (``.toml``) file."""
+    from knotsim.knots.library import list_knots
+
+    return name in {n for n, _ in list_knots()} or str(name).endswith(".toml")
+
+
+def geometry_from_library(knot: str, *, n_nodes=None, radius=None, length=None) -> ProtocolGeometry:
+    """The library drawing ``knot`` built at the given resolution (defaults: the drawing's)."""
+    from knotsim.knots.library import get_knot
+
+    geo = get_knot(knot, n_nodes=n_nodes, radius=radius, length=length)
+    return ProtocolGeometry(name=geo.name, kind=geo.kind, ropes=[np.array(x, float) for x in geo.ropes],
+                            rope_names=list(geo.rope_names), radius=float(geo.radius), length=float(geo.length),
+                            held=tuple(EndRef(h.rope, h.node) for h in geo.held),
+                            pulled=tuple(EndRef(p.rope, p.node) for p in geo.pulled), source=str(knot))
+
+
+def _arc_length(x: np.ndarray) -> float:
+    return float(np.sum(np.linalg.norm(np.diff(x, axis=0), axis=1)))
+
+
+def geometry_from_source(path: str, *, radius: float | None, scale: float = 1.0,
+                         matrices: list[str] | None = None) -> ProtocolGeometry:
+    """Geometry from a node file or an earlier run's directory.
+
+    ``radius`` (m) is the rod radius for a node file (a run directory brings its own). Raises
+    :class:`ConfigError` for a missing or unreadable source, :class:`GeometryError` for zero-length
+    edges."""
+    from knotsim.io.geometry import is_run_directory, read_node_file, read_run_frame
+
+    p = Path(path)
+    if is_run_directory(p):
+        frames = read_run_frame(p, -1, field="geometry")
+        ropes = [f.positions for f in frames]
+        state = [{"velocities": f.velocities, "edge_angles": f.edge_angles,
+                  "reference_directors": f.reference_directors} for f in frames]
+        hint, knot_hint = _provenance(p)
+        geo = ProtocolGeometry(name=f"{p.name} (t = {frames[0].time:.4g} s)", kind="run", ropes=ropes,
+                               rope_names=[f.name for f in frames], radius=float(frames[0].radius),
+                               length=_arc_length(ropes[0]), source=str(p), state=state, protocol_hint=hint,
+                               knot_hint=knot_hint)
+    else:
+        if not p.exists():
+            raise ConfigError("geometry", f"no such node file or run directory: {str(p)!r}")
+        if p.is_dir():
+            raise ConfigError("geometry", f"{str(p)!r} is a directory but not a knotsim run (no checkpoint.npz "
+                                          "or trajectory.h5)")
+        if radius is None:
+            raise ConfigError("radius", "a node file needs the rod radius (--set radius=...)")
+        ropes = read_node_file(p, matrices=matrices, scale=scale, field="geometry")
+        names = list(matrices) if matrices else ([f"rope{k}" for k in range(len(ropes))] if len(ropes) > 1
+                                                 else ["rope"])
+        geo = ProtocolGeometry(name=p.name, kind="nodes", ropes=ropes, rope_names=names, radius=float(radius),
+                               length=_arc_length(ropes[0]), source=str(p))
+    check_edges(geo)
+    return geo
+
+
+def _provenance(run_dir: Path) -> tuple[str | None, str | None]:
+    """Protocol and knot recorded in a run directory's ``run.toml`` (``None`` when absent)."""
+    f = run_dir / "run.toml"
+    if not f.is_file():
+        return None, None
+    from knotsim._util.toml import load_toml
+
+    try:
+        prov = load_toml(f).get("provenance", {})
+    except ConfigError:
+        return None, None
+    return prov.get("protocol"), prov.get("knot")
+
+
+def check_edges(geo: ProtocolGeometry) -> None:
+    """Raise :class:`GeometryError` naming the rope and edge of a zero-length edge."""
+    for r, x in enumerate(geo.ropes):
+        lengths = np.linalg.norm(np.diff(x, axis=0), axis=1)
+        k = int(np.argmin(lengths))
+        if lengths[k] <= 1e-9 * max(geo.length, 1e-12):
+            raise GeometryError(f"geometry {geo.name!r}: rope {geo.rope_names[r]!r} edge {k} (nodes {k}, {k + 1}) "
+                                f"has zero length ({lengths[k]:.3g} m); remove duplicate nodes")
+
+
+def default_ends(geo: ProtocolGeometry) -> tuple[tuple, tuple]:
+    """Loading hints, or the rope ends when the geometry has none: one rope: first end held,
+    last end pulled; two ropes: rope 0's first node held, rope 1's first node pulled (as in Patil
+    et al. 2020)."""
+    if geo.held or geo.pulled:
+        return geo.held, geo.pulled
+    if len(geo.ropes) == 1:
+        return (EndRef(0, 0),), (EndRef(0, len(geo.ropes[0]) - 1),)
+    return (EndRef(0, 0),), (EndRef(1, 0),)
+
+
+def parse_end(text, geo: ProtocolGeometry, field: str) -> EndRef:
+    """An end given as ``"ROPE:NODE"`` (rope index or name; node 0 or -1) as an :class:`EndRef`."""
+    if not isinstance(text, str) or ":" not in text:
+        raise ConfigError(field, f"expected ROPE:NODE, e.g. \"0:0\" or \"B:-1\", got {text!r}")
+    rope_s, node_s = text.split(":", 1)
+    if rope_s in geo.rope_names:
+        rope = geo.rope_names.index(rope_s)
+    else:
+        try:
+            rope = int(rope_s)
+        except ValueError:
+            raise ConfigError(field, f"unknown rope {rope_s!r}; ropes are {geo.rope_names}") from None
+    if not 0 <= rope < len(geo.ropes):
+        raise ConfigError(field, f"rope {rope} out of range: the geometry has {len(geo.ropes)} rope(s)")
+    n = len(geo.ropes[rope])
+    try:
+        node = int(node_s)
+    except ValueError:
+        raise ConfigError(field, f"expected an end node 0 or -1, got {node_s!r}") from None
+    node = node % n
+    if node not in (0, n - 1):
+        raise ConfigError(field, f"node {node_s} is not an end of rope {rope} (0 or -1)")
+    return EndRef(rope, node)
