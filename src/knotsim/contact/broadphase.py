@@ -3,7 +3,8 @@
 A pair of edges ``(a, b)`` is a *candidate* when the minimum distance between the two segments is
 below the pair's cut-off ``edge_radius[a] + edge_radius[b] + extra`` (m), unless both edges belong
 to the same rod and are fewer than 3 edges apart along it (measured cyclically on closed rods):
-such neighbours always "touch" and are never candidates (physics notes, section 2).
+such neighbours always "touch" and are never candidates (physics notes, section 2; the rule lives
+in :mod:`knotsim.geometry.exclusion`).
 
 Algorithm (linear in the number of edges for bounded density):
 
@@ -26,8 +27,9 @@ Cost: O(n_edges + number of box-overlapping pairs) for the usual case of edges o
 everything in one cell degrades gracefully to the O(n^2) all-pairs test, still exact.
 Non-finite coordinates or radii raise ``ValueError``.
 
-The result is exactly the set of pairs (not excluded) for which :func:`segment_distance` is below
-the cut-off; the grid only decides which pairs are tested. All kernels are numba
+The result is exactly the set of pairs (not excluded) for which
+:func:`knotsim.geometry.segments.segment_distance` (re-exported here) is below the cut-off; the
+grid only decides which pairs are tested. All kernels are numba
 ``@njit(cache=True)`` scalar code.
 """
 
@@ -38,7 +40,10 @@ import math
 import numpy as np
 from numba import njit
 
-from knotsim import _vec3 as v3
+from knotsim.geometry.exclusion import MIN_INDEX_GAP, index_distance
+from knotsim.geometry.segments import segment_distance
+
+__all__ = ["find_candidate_pairs", "node_drift", "segment_distance"]
 
 # Cells per axis are kept below 2**_AXIS_BITS so a cell (ix, iy, iz) packs into one int64 key.
 _AXIS_BITS = 20
@@ -50,76 +55,13 @@ _CELL_FACTOR = 1.0
 
 
 @njit(inline="always", cache=True)
-def _clamp01(x):
-    if x < 0.0:
-        return 0.0
-    if x > 1.0:
-        return 1.0
-    return x
-
-
-@njit(cache=True)
-def segment_distance(p0, p1, q0, q1):
-    """Minimum distance (m) between segments ``[p0, p1]`` and ``[q0, q1]``.
-
-    Arguments are 3-tuples of floats (m). Handles degenerate (zero-length) and parallel segments:
-    the returned value is always the distance of an actual pair of points on the two segments (the
-    closest pair, up to rounding). The final norm is rescaled when its square would underflow, so
-    tiny distances are not flushed to zero (segments shorter than about 1e-150 m are handled as
-    points, an error below their length).
-    """
-    d1 = v3.sub(p1, p0)
-    d2 = v3.sub(q1, q0)
-    r = v3.sub(p0, q0)
-    a = v3.dot(d1, d1)
-    e = v3.dot(d2, d2)
-    f = v3.dot(d2, r)
-    s = 0.0
-    t = 0.0
-    if a <= 0.0 and e <= 0.0:
-        pass
-    elif a <= 0.0:
-        t = _clamp01(f / e)
-    else:
-        c = v3.dot(d1, r)
-        if e <= 0.0:
-            s = _clamp01(-c / a)
-        else:
-            b = v3.dot(d1, d2)
-            denom = a * e - b * b
-            # Parallel (or nearly): any s works for the line problem; take s = 0 and let the
-            # clamping below find the closest pair of the segments.
-            if denom > 1e-14 * a * e:
-                s = _clamp01((b * f - c * e) / denom)
-            t = (b * s + f) / e
-            if t < 0.0:
-                t = 0.0
-                s = _clamp01(-c / a)
-            elif t > 1.0:
-                t = 1.0
-                s = _clamp01((b - c) / a)
-    w = v3.sub(v3.axpy(s, d1, p0), v3.axpy(t, d2, q0))
-    w2 = v3.dot(w, w)
-    if w2 > 1e-280:
-        return math.sqrt(w2)
-    big = max(abs(w[0]), abs(w[1]), abs(w[2]))
-    if big == 0.0:
-        return 0.0
-    return big * v3.norm((w[0] / big, w[1] / big, w[2] / big))
-
-
-@njit(inline="always", cache=True)
 def _excluded(a, b, edge_rod, edge_local, rod_n_edges, rod_closed):
-    """True when edges ``a`` and ``b`` are on the same rod and fewer than 3 edges apart."""
+    """True when edges ``a`` and ``b`` are on the same rod and fewer than ``MIN_INDEX_GAP`` (3) edges
+    apart (:mod:`knotsim.geometry.exclusion`)."""
     r = edge_rod[a]
     if r != edge_rod[b]:
         return False
-    di = abs(edge_local[a] - edge_local[b])
-    if rod_closed[r]:
-        n = rod_n_edges[r]
-        if n - di < di:
-            di = n - di
-    return di < 3
+    return index_distance(edge_local[a], edge_local[b], rod_n_edges[r], rod_closed[r]) < MIN_INDEX_GAP
 
 
 @njit(inline="always", cache=True)
@@ -139,6 +81,21 @@ def _close(a, b, ends, edge_radius, extra):
         (ends[b, 3], ends[b, 4], ends[b, 5]),
     )
     return d < edge_radius[a] + edge_radius[b] + extra
+
+
+@njit(inline="always", cache=True)
+def _add_if_close(a, b, pairs, npairs, ends, edge_rod, edge_local, rod_n_edges, rod_closed, edge_radius, extra):
+    """Append ``(min(a, b), max(a, b))`` to ``pairs[:npairs]`` (grown when full) when the pair is not
+    excluded and closer than its cut-off; returns the buffer and the new count."""
+    if _excluded(a, b, edge_rod, edge_local, rod_n_edges, rod_closed):
+        return pairs, npairs
+    if not _close(a, b, ends, edge_radius, extra):
+        return pairs, npairs
+    if npairs == pairs.shape[0]:
+        pairs = _grow(pairs)
+    pairs[npairs, 0] = min(a, b)
+    pairs[npairs, 1] = max(a, b)
+    return pairs, npairs + 1
 
 
 @njit(inline="always", cache=True)
@@ -374,16 +331,8 @@ def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
                 )
                 if not hit:
                     continue
-                a = sown[i]
-                b = sown[j]
-                if _excluded(a, b, edge_rod, edge_local, rod_n_edges, rod_closed):
-                    continue
-                if _close(a, b, ends, edge_radius, extra):
-                    if npairs == pairs.shape[0]:
-                        pairs = _grow(pairs)
-                    pairs[npairs, 0] = min(a, b)
-                    pairs[npairs, 1] = max(a, b)
-                    npairs += 1
+                pairs, npairs = _add_if_close(sown[i], sown[j], pairs, npairs, ends, edge_rod, edge_local,
+                                              rod_n_edges, rod_closed, edge_radius, extra)
 
     # big boxes against everything (a big-big pair is handled once, from its smaller index)
     if n_big > 0:
@@ -395,14 +344,8 @@ def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
                     continue
                 if not _boxes_overlap(lo, hi, a, b):
                     continue
-                if _excluded(a, b, edge_rod, edge_local, rod_n_edges, rod_closed):
-                    continue
-                if _close(a, b, ends, edge_radius, extra):
-                    if npairs == pairs.shape[0]:
-                        pairs = _grow(pairs)
-                    pairs[npairs, 0] = min(a, b)
-                    pairs[npairs, 1] = max(a, b)
-                    npairs += 1
+                pairs, npairs = _add_if_close(a, b, pairs, npairs, ends, edge_rod, edge_local, rod_n_edges,
+                                              rod_closed, edge_radius, extra)
 
     # 4. lexicographic order: two stable counting sorts (on the second index, then the first)
     by_second = _counting_order(pairs[:npairs, 1], np.arange(npairs), ne)

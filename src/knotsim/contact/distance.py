@@ -48,6 +48,7 @@ import math
 from numba import njit
 
 from knotsim import _vec3 as v3
+from knotsim.geometry.segments import clamp01, edge_vectors, load_edges
 
 # Case codes. PP digits are (beta_i, beta_j).
 CASE_PP_00 = 0  #: point–point x0–x2 (β_i = 0, β_j = 0)
@@ -102,21 +103,12 @@ def case_kind(case: int) -> str:
 
 
 @njit(inline="always", cache=True)
-def _clamp01(t):
-    if t <= 0.0:
-        return 0.0
-    if t >= 1.0:
-        return 1.0
-    return t
-
-
-@njit(inline="always", cache=True)
 def _point_segment(x, a, d, dd):
     """Clamped ratio and squared distance from point ``x`` to segment ``a + t d`` (``dd = d·d``)."""
     if dd <= MIN_LENGTH2:
         t = 0.0
     else:
-        t = _clamp01(v3.dot(v3.sub(x, a), d) / dd)
+        t = clamp01(v3.dot(v3.sub(x, a), d) / dd)
     w = v3.sub(v3.sub(x, a), v3.scale(t, d))
     return t, v3.dot(w, w)
 
@@ -148,15 +140,8 @@ def edge_edge_distance(p):
     beta_i, beta_j : float, contact ratios in [0, 1] (exactly 0.0 or 1.0 at a bound).
     case : int, one of the ``CASE_*`` codes.
     """
-    x0 = v3.load(p, 0)
-    x1 = v3.load(p, 3)
-    x2 = v3.load(p, 6)
-    x3 = v3.load(p, 9)
-    d1 = v3.sub(x1, x0)
-    d2 = v3.sub(x3, x2)
-    r = v3.sub(x0, x2)
-    a = v3.dot(d1, d1)
-    e = v3.dot(d2, d2)
+    x0, x1, x2, x3 = load_edges(p)
+    d1, d2, r, a, e = edge_vectors(x0, x1, x2, x3)
     u = v3.cross(d1, d2)
     D = v3.dot(u, u)
     if a > MIN_LENGTH2 and e > MIN_LENGTH2 and D > PARALLEL_SIN2 * a * e:
@@ -205,12 +190,8 @@ def edge_edge_distance(p):
 @njit(inline="always", cache=True)
 def _beta_blocks(p, bi, bj, case):
     """∂β_i/∂x_l and ∂β_j/∂x_l (l = 0..3) as two 4-tuples of 3-vectors (1/m)."""
-    x0 = v3.load(p, 0)
-    x1 = v3.load(p, 3)
-    x2 = v3.load(p, 6)
-    x3 = v3.load(p, 9)
-    d1 = v3.sub(x1, x0)
-    d2 = v3.sub(x3, x2)
+    x0, x1, x2, x3 = load_edges(p)
+    d1, d2, _, _, _ = edge_vectors(x0, x1, x2, x3)
     z = (0.0, 0.0, 0.0)
     if case <= CASE_PP_11:
         return (z, z, z, z), (z, z, z, z)
@@ -299,12 +280,8 @@ def edge_edge_distance_derivatives(p, grad, hess):
         grad[k] = 0.0
         for l in range(12):
             hess[k, l] = 0.0
-    x0 = v3.load(p, 0)
-    x1 = v3.load(p, 3)
-    x2 = v3.load(p, 6)
-    x3 = v3.load(p, 9)
-    d1 = v3.sub(x1, x0)
-    d2 = v3.sub(x3, x2)
+    x0, x1, x2, x3 = load_edges(p)
+    d1, d2, _, _, _ = edge_vectors(x0, x1, x2, x3)
     c = (1.0 - bi, bi, -(1.0 - bj), -bj)
     # d c_k / d beta_i and d c_k / d beta_j
     si = (-1.0, 1.0, 0.0, 0.0)

@@ -54,6 +54,7 @@ from knotsim.contact.assembly import (
 )
 from knotsim.contact.broadphase import find_candidate_pairs, node_drift
 from knotsim.errors import ConfigError
+from knotsim.geometry import exclusion
 
 #: Weight of the new target in the downward moving average of the adaptive stiffness (per step).
 STIFFNESS_RELAX = 0.02
@@ -194,12 +195,12 @@ class ContactInteraction:
         self.pairs = np.zeros((0, 2), np.int64)
         self.pair_dofs = np.zeros((0, 12), np.int64)
         self._dt_ref = 0.0
-        # Same-rod pairs closer than 1.5 contact distances along the rod never count as contact: on a
-        # finely meshed rod, edges i and i + 3 of a straight rod are closer than 2h (the broad phase
-        # already skips |i - j| < 3).
+        # Same-rod pairs closer than 1.5 contact distances along the rod never count as contact
+        # (knotsim.geometry.exclusion): on a finely meshed rod, edges i and i + 3 of a straight rod
+        # are closer than 2h (the broad phase already skips |i - j| < 3).
         self._rod_min_gap = np.array([
-            max(3, int(np.ceil(1.5 * 2.0 * rod.radius / float(np.mean(
-                model.rest_length[model.rod_edge_start[r]:model.rod_edge_start[r + 1]])) - 1e-9)) + 1)
+            exclusion.min_index_gap(float(np.mean(
+                model.rest_length[model.rod_edge_start[r]:model.rod_edge_start[r + 1]])), 2.0 * rod.radius)
             for r, rod in enumerate(model.rods)], dtype=np.int64)
         self.pair_d = np.zeros(0)
         self.pair_mu = np.zeros(0)
@@ -252,19 +253,15 @@ class ContactInteraction:
                                      m.edge_radius, extra)
         if not self.settings.self_contact and pairs.shape[0]:
             pairs = pairs[m.edge_rod[pairs[:, 0]] != m.edge_rod[pairs[:, 1]]]
-        elif pairs.shape[0] and np.any(self._rod_min_gap > 3):
+        elif pairs.shape[0] and np.any(self._rod_min_gap > exclusion.MIN_INDEX_GAP):
             pairs = pairs[self._self_pair_allowed(pairs)]
         return np.ascontiguousarray(pairs, dtype=np.int64)
 
     def _self_pair_allowed(self, pairs) -> np.ndarray:
         """Mask of pairs not excluded by the per-rod minimum index distance (finely meshed rods)."""
         m = self.model
-        ra = m.edge_rod[pairs[:, 0]]
-        same = ra == m.edge_rod[pairs[:, 1]]
-        di = np.abs(m.edge_local[pairs[:, 0]] - m.edge_local[pairs[:, 1]])
-        n = m.rod_n_edges[ra]
-        di = np.where(m.rod_closed[ra], np.minimum(di, n - di), di)
-        return ~same | (di >= self._rod_min_gap[ra])
+        return exclusion.pairs_allowed(pairs, m.edge_rod, m.edge_local, m.rod_n_edges, m.rod_closed,
+                                       self._rod_min_gap)
 
     def begin_step(self, state_in, dt: float) -> None:
         """Candidate pairs (broad phase, cut-off ``h_a + h_b + delta + margin``) and k_c for a step.

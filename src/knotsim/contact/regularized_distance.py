@@ -51,15 +51,7 @@ from numba import njit
 
 from knotsim import _vec3 as v3
 from knotsim.contact.distance import CASE_EE, CASE_EP_0, CASE_PE_0, MIN_LENGTH2, TINY_DISTANCE
-
-
-@njit(inline="always", cache=True)
-def _clamp01(t):
-    if t <= 0.0:
-        return 0.0
-    if t >= 1.0:
-        return 1.0
-    return t
+from knotsim.geometry.segments import clamp01, edge_vectors, load_edges
 
 
 @njit(inline="always", cache=True)
@@ -82,15 +74,8 @@ def regularized_distance(p, eta):
     ``(delta, beta_i, beta_j, case)``: ``Δ = √V`` (m), the minimising ratios in [0, 1] (exactly 0.0
     or 1.0 at a bound) and the case code of the active set.
     """
-    x0 = v3.load(p, 0)
-    x1 = v3.load(p, 3)
-    x2 = v3.load(p, 6)
-    x3 = v3.load(p, 9)
-    d1 = v3.sub(x1, x0)
-    d2 = v3.sub(x3, x2)
-    r = v3.sub(x0, x2)
-    A = v3.dot(d1, d1)
-    B = v3.dot(d2, d2)
+    x0, x1, x2, x3 = load_edges(p)
+    d1, d2, r, A, B = edge_vectors(x0, x1, x2, x3)
     C = v3.dot(d1, d2)
     ra = v3.dot(r, d1)
     rb = v3.dot(r, d2)
@@ -118,12 +103,12 @@ def regularized_distance(p, eta):
             si = float(side)
             if not free_i and side == 1:
                 continue
-            sj = _clamp01((gj + C * si) / Bj) if free_j else 0.0
+            sj = clamp01((gj + C * si) / Bj) if free_j else 0.0
         else:  # beta_j fixed at 0 or 1, beta_i free
             sj = float(side - 2)
             if not free_j and side == 3:
                 continue
-            si = _clamp01((gi + C * sj) / Ai) if free_i else 0.0
+            si = clamp01((gi + C * sj) / Ai) if free_i else 0.0
         V = _objective(r, d1, d2, A, B, eta, si, sj)
         if V < best:
             best = V
@@ -157,11 +142,9 @@ def _free_flags(case):
 @njit(inline="always", cache=True)
 def _edges_and_gap(p, bi, bj):
     """Edge vectors ``d1 = x1 − x0``, ``d2 = x3 − x2`` and ``q(β) = x0 + β_i d1 − x2 − β_j d2`` (m)."""
-    x0 = v3.load(p, 0)
-    x2 = v3.load(p, 6)
-    d1 = v3.sub(v3.load(p, 3), x0)
-    d2 = v3.sub(v3.load(p, 9), x2)
-    return d1, d2, v3.sub(v3.axpy(bi, d1, v3.sub(x0, x2)), v3.scale(bj, d2))
+    x0, x1, x2, x3 = load_edges(p)
+    d1, d2, r, _, _ = edge_vectors(x0, x1, x2, x3)
+    return d1, d2, v3.sub(v3.axpy(bi, d1, r), v3.scale(bj, d2))
 
 
 @njit(inline="always", cache=True)
