@@ -43,6 +43,15 @@ def _relabel(X: list[list[int]], old: int, new: int) -> None:
                 x[s] = new
 
 
+def _merge(X: list[list[int]], keep: int, drop: int) -> int:
+    """Join the two edges left by a removed strand: relabel ``drop`` as ``keep``. Returns 1 when they
+    are the same edge (the strand closed into a crossing-free loop), else 0."""
+    if keep == drop:
+        return 1
+    _relabel(X, drop, keep)
+    return 0
+
+
 def simplify_pd(pd, signs, free_loops: int = 0) -> tuple[list[tuple[int, int, int, int]], np.ndarray, int]:
     """Remove Reidemeister I kinks and Reidemeister II bigons until none is left.
 
@@ -75,10 +84,7 @@ def simplify_pd(pd, signs, free_loops: int = 0) -> tuple[list[tuple[int, int, in
                     u, v = x[(p + 2) % 4], x[(p + 3) % 4]
                     del X[idx]
                     del S[idx]
-                    if u == v:
-                        free += 1
-                    else:
-                        _relabel(X, v, u)
+                    free += _merge(X, u, v)
                     done = True
                     break
             if done:
@@ -99,15 +105,9 @@ def simplify_pd(pd, signs, free_loops: int = 0) -> tuple[list[tuple[int, int, in
                 del X[i]
                 del S[i]
             u1, v1 = m1
-            if u1 == v1:
-                free += 1
-            else:
-                _relabel(X, v1, u1)
+            free += _merge(X, u1, v1)
             u2, v2 = (u1 if m2[0] == v1 else m2[0]), (u1 if m2[1] == v1 else m2[1])
-            if u2 == v2:
-                free += 1
-            else:
-                _relabel(X, v2, u2)
+            free += _merge(X, u2, v2)
             done = True
             break
         if not done:
