@@ -108,6 +108,30 @@ def etree(n, up, ui):
 
 
 @njit(cache=True)
+def _row_subtrees(n, up, ui, parent, write, colcnt, rowcnt, Li, fill):
+    """Visit every strictly lower nonzero ``L[k, i]`` (rows ``k`` ascending) through the row subtrees.
+
+    ``write=False``: count them, ``colcnt[i] += 1`` and ``rowcnt[k] += 1`` (both ``(n,)``);
+    ``write=True``: store ``Li[fill[i]] = k`` and advance ``fill[i]`` (``fill`` ``(n,)``: next free
+    position of each column of ``Li``).
+    """
+    mark = np.full(n, -1, np.int64)
+    for k in range(n):
+        mark[k] = k
+        for p in range(up[k], up[k + 1]):
+            i = ui[p]
+            while mark[i] != k:
+                mark[i] = k
+                if write:
+                    Li[fill[i]] = k
+                    fill[i] += 1
+                else:
+                    colcnt[i] += 1
+                    rowcnt[k] += 1
+                i = parent[i]
+
+
+@njit(cache=True)
 def l_counts(n, up, ui, parent):
     """Column pointers of strictly lower ``L`` and its row counts, through the row subtrees.
 
@@ -115,18 +139,9 @@ def l_counts(n, up, ui, parent):
     its elimination tree. Returns ``(Lp, rowcnt)``: ``Lp`` ``(n+1,)`` (column ``j`` of ``L`` has
     ``Lp[j+1] - Lp[j]`` entries), ``rowcnt`` ``(n,)`` strictly lower entries of each row of ``L``.
     """
-    mark = np.full(n, -1, np.int64)
     colcnt = np.zeros(n, np.int64)
     rowcnt = np.zeros(n, np.int64)
-    for k in range(n):
-        mark[k] = k
-        for p in range(up[k], up[k + 1]):
-            i = ui[p]
-            while mark[i] != k:
-                mark[i] = k
-                colcnt[i] += 1
-                rowcnt[k] += 1
-                i = parent[i]
+    _row_subtrees(n, up, ui, parent, False, colcnt, rowcnt, np.empty(0, np.int32), colcnt)
     Lp = np.zeros(n + 1, np.int64)
     for k in range(n):
         Lp[k + 1] = Lp[k] + colcnt[k]
@@ -136,19 +151,10 @@ def l_counts(n, up, ui, parent):
 @njit(cache=True)
 def l_pattern(n, up, ui, parent):
     """Pattern of strictly lower ``L`` by columns (rows ascending): ``(Lp, Li)``, ``(n+1,)``, ``(nnz_L,)``."""
-    Lp, _ = l_counts(n, up, ui, parent)
+    Lp, rowcnt = l_counts(n, up, ui, parent)
     Li = np.empty(Lp[n], np.int32)
     fill = Lp[:n].copy()
-    mark = np.full(n, -1, np.int64)
-    for k in range(n):
-        mark[k] = k
-        for p in range(up[k], up[k + 1]):
-            i = ui[p]
-            while mark[i] != k:
-                mark[i] = k
-                Li[fill[i]] = k
-                fill[i] += 1
-                i = parent[i]
+    _row_subtrees(n, up, ui, parent, True, rowcnt, rowcnt, Li, fill)
     return Lp, Li
 
 
