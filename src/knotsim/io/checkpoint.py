@@ -86,8 +86,10 @@ class Checkpoint:
             n0, n1 = lay["rod_node_start"][r], lay["rod_node_start"][r + 1]
             e0, e1 = lay["rod_edge_start"][r], lay["rod_edge_start"][r + 1]
             dofs = node_dof[n0:n1, None] + np.arange(3)[None, :]
+            rest = self.arrays.get("layout/rest_length")
             out.append(RodFrame(q[dofs].copy(), q[theta_dof[e0:e1]].copy(), v[dofs].copy(), d1[e0:e1].copy(),
-                                bool(lay["rod_closed"][r]), float(lay["rod_radius"][r]), name, self.time))
+                                bool(lay["rod_closed"][r]), float(lay["rod_radius"][r]), name, self.time,
+                                rest[e0:e1].copy() if rest is not None else None))
         return out
 
 
@@ -108,6 +110,7 @@ def write_checkpoint(path: str | os.PathLike, sim) -> Path:
     arrays: dict[str, np.ndarray] = {f"state/{k}": np.asarray(getattr(st, k)) for k in _STATE_KEYS}
     arrays["layout/node_dof"] = np.asarray(sim.model.node_dof)
     arrays["layout/edge_theta_dof"] = np.asarray(sim.model.edge_theta_dof)
+    arrays["layout/rest_length"] = np.asarray(sim.model.rest_length)
     components: dict[str, dict] = {}
     for prefix, (meta, arrs) in sections.items():
         components[prefix] = meta

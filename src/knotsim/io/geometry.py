@@ -140,7 +140,8 @@ class RodFrame:
 
     ``positions (N, 3)`` m; ``edge_angles (N-1,)`` or ``(N,)`` for a ring, rad;
     ``velocities (N, 3)`` m/s or ``None``; ``reference_directors (n_edges, 3)`` or ``None``;
-    ``closed``; ``radius`` m; ``name``; ``time`` s of the frame.
+    ``closed``; ``radius`` m; ``name``; ``time`` s of the frame; ``rest_edge_lengths (n_edges,)`` m
+    of the run's rope (``None`` when not stored).
     """
 
     positions: np.ndarray
@@ -151,6 +152,7 @@ class RodFrame:
     radius: float
     name: str
     time: float
+    rest_edge_lengths: np.ndarray | None = None
 
 
 def read_run_frame(run_dir: str | os.PathLike, frame: int = -1, field: str = "run") -> list[RodFrame]:
@@ -186,6 +188,7 @@ def read_run_frame(run_dir: str | os.PathLike, frame: int = -1, field: str = "ru
         ea, eb = int(tr.rod_edge_start[r]), int(tr.rod_edge_start[r + 1])
         v = tr.state["velocities"][0, a:b] if "velocities" in tr.state else None
         d1 = tr.state["reference_directors"][0, ea:eb] if "reference_directors" in tr.state else None
+        rest = tr.state["rest_edge_length"][ea:eb] if "rest_edge_length" in tr.state else None
         out.append(RodFrame(tr.rod_positions(0, r), tr.rod_edge_angles(0, r), v, d1, bool(tr.rod_closed[r]),
-                            float(tr.rod_radius[r]), tr.rod_names[r], float(tr.time[0])))
+                            float(tr.rod_radius[r]), tr.rod_names[r], float(tr.time[0]), rest))
     return out

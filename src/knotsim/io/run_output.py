@@ -35,7 +35,8 @@ class RunOutput:
         self.interval = output_interval
         self.config = config if config is not None else getattr(sim, "config", None)
         self.writer = TrajectoryWriter(self.dir / "trajectory.h5", m.rod_node_start, m.rod_edge_start, m.rod_closed,
-                                       m.rod_radius, m.rod_names, flush_every=16, n_bend=int(m.n_bend))
+                                       m.rod_radius, m.rod_names, flush_every=16, n_bend=int(m.n_bend),
+                                       rest_edge_length=m.rest_length)
         self._next = None
         self._last_time = None
         self._rows_start = len(sim.rows)

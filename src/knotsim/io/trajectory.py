@@ -124,6 +124,9 @@ class TrajectoryWriter:
         ``(T, n_nodes, 3)`` m/s, ``reference_directors`` ``(T, n_edges, 3)`` (unit first reference
         director of each edge; the material frame is it rotated by the edge angle about the
         tangent) and ``reference_twist`` ``(T, n_bend)`` rad.
+    rest_edge_length:
+        ``(n_edges,)`` m, the rods' rest edge lengths (stored once), so that a run continued from a
+        frame keeps the rope's rest shape.
     """
 
     def __init__(
@@ -140,6 +143,7 @@ class TrajectoryWriter:
         compression: str | None = None,
         attrs: dict[str, Any] | None = None,
         n_bend: int | None = None,
+        rest_edge_length: np.ndarray | None = None,
     ):
         node_start, edge_start, closed, radius, names = _validate_layout(
             rod_node_start, rod_edge_start, rod_closed, rod_radius, rod_names
@@ -189,6 +193,8 @@ class TrajectoryWriter:
                 fillvalue=np.nan,
                 compression=compression,
             )
+            if rest_edge_length is not None:
+                f.create_dataset("rest_edge_length", data=np.asarray(rest_edge_length, dtype=np.float64))
             self._state_ds = {}
             if n_bend is not None:
                 for key, shape in (("velocities", (self.n_nodes, 3)), ("reference_directors", (self.n_edges, 3)),
@@ -376,8 +382,8 @@ class Trajectory:
     frame_indices: np.ndarray
     attrs: dict[str, Any] = field(default_factory=dict)
     path: Path | None = None
-    #: ``velocities``, ``reference_directors``, ``reference_twist`` of the loaded frames when the file
-    #: stores them (see :class:`TrajectoryWriter`), else empty.
+    #: ``velocities``, ``reference_directors``, ``reference_twist`` of the loaded frames and the
+    #: static ``rest_edge_length`` when the file stores them (see :class:`TrajectoryWriter`), else empty.
     state: dict[str, np.ndarray] = field(default_factory=dict)
     _file: h5py.File | None = field(default=None, repr=False)
 
@@ -570,6 +576,8 @@ def read_trajectory(path: str | os.PathLike, frames: Any = None, *, lazy: bool =
         edge_angles = _LazyFrames(ang_ds, sel)[:]
         state = {key: _LazyFrames(f[key], sel)[:] for key in _STATE_KEYS
                  if key in f and f[key].shape[0] >= n}
+        if "rest_edge_length" in f:
+            state["rest_edge_length"] = np.asarray(f["rest_edge_length"][()], dtype=np.float64)
     except BaseException:
         f.close()
         raise

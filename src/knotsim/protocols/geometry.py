@@ -89,11 +89,14 @@ def geometry_from_source(path: str, *, radius: float | None, scale: float = 1.0,
         frames = read_run_frame(p, -1, field="geometry")
         ropes = [f.positions for f in frames]
         state = [{"velocities": f.velocities, "edge_angles": f.edge_angles,
-                  "reference_directors": f.reference_directors} for f in frames]
+                  "reference_directors": f.reference_directors, "rest_edge_length": f.rest_edge_lengths}
+                 for f in frames]
         hint, knot_hint = _provenance(p)
         geo = ProtocolGeometry(name=f"{p.name} (t = {frames[0].time:.4g} s)", kind="run", ropes=ropes,
                                rope_names=[f.name for f in frames], radius=float(frames[0].radius),
-                               length=_arc_length(ropes[0]), source=str(p), state=state, protocol_hint=hint,
+                               length=(float(np.sum(frames[0].rest_edge_lengths))
+                                       if frames[0].rest_edge_lengths is not None else _arc_length(ropes[0])),
+                               source=str(p), state=state, protocol_hint=hint,
                                knot_hint=knot_hint)
     else:
         if not p.exists():

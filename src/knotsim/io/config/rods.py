@@ -220,6 +220,8 @@ def parse_rod(t, i: int, base_dir: Path) -> RodSpec:
         if frame.reference_directors is not None:
             kw["reference_directors"] = frame.reference_directors
             kw["edge_angles"] = frame.edge_angles
+    if frame is not None and frame.rest_edge_lengths is not None and "rest_edge_length" not in t:
+        kw["rest_edge_lengths"] = frame.rest_edge_lengths  # the same rope: its rest shape carries over
     for key in ("velocities", "edge_angles", "reference_directors"):
         if key in t:
             kw[key] = as_numbers(t[key], f"{path}.{key}")
