@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 
 from knotsim.errors import ConfigError
+from knotsim.knots import topology as T
 from knotsim.knots.geometry import KnotGeometry, NodeRef
 from knotsim.knots.library import get_knot, knot_names, list_knots, load_knot_spec
 
-from .test_geometry import brute_min_clearance, count_crossings, letters_along
+from .brute import brute_min_clearance, count_crossings, letters_along
 
 # name -> (crossings, writhe of the xy projection with the ropes oriented first -> last node)
 EXPECTED = {
@@ -172,7 +173,6 @@ def test_bend_loading_hints(name, free_same_side):
 
 
 def test_topology_module_agrees():
-    T = pytest.importorskip("knotsim.knots.topology")
     cases = {"overhand_n1": "3_1", "overhand_n2": "5_1", "overhand_n3": "7_1",
              "single_rod_reef": "3_1#3_1*", "single_rod_granny": "3_1#3_1",
              "reef_bend": "3_1#3_1*", "granny_bend": "3_1#3_1"}
