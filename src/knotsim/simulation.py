@@ -108,8 +108,11 @@ class Simulation:
             row[f"{name}_force"] = float(np.linalg.norm(r[:3]))
         row.update(res.interaction_stats)
         if self.stages:
-            mid = res.time - 0.5 * res.dt
-            row["stage"] = next((name for name, t0, t1 in self.stages if t0 <= mid < t1), self.stages[-1][0])
+            # a step belongs to the stage whose boundary conditions governed it: the one active at its
+            # end time (the rule of BoundaryConditions: start <= t < stop, within 1e-12 s)
+            t = res.time
+            row["stage"] = next((name for name, t0, t1 in self.stages if t0 - 1e-12 <= t < t1 - 1e-12),
+                                self.stages[-1][0])
         return row
 
     def advance(self, t_end: float, callback: Callable[[Simulation, StepResult], None] | None = None) -> None:

@@ -1,0 +1,212 @@
+"""The run builder: saved run files replay, checkpoints continue runs exactly, stages chain, any
+geometry source goes into any protocol."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from knotsim.cli import main
+from knotsim.errors import ConfigError, GeometryError
+from knotsim.io.trajectory import read_trajectory
+from knotsim.run import RunSpec, build_run, run
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+FOREIGN = Path(__file__).resolve().parents[3] / "shared" / "data" / "foreign"
+
+
+def _last_positions(d) -> tuple[float, np.ndarray]:
+    t = read_trajectory(Path(d) / "trajectory.h5", frames=-1)
+    return float(t.time[0]), t.positions[0]
+
+
+def test_run_of_2t_equals_t_continued_for_t_bit_for_bit(tmp_path):
+    """Contact, friction, moving grips: the continuation takes the same steps (the checkpoint
+    resumes before the final step that was shortened to land on T)."""
+    spec = RunSpec.load(EXAMPLES / "crossing_rods.toml")
+    total = 0.37  # not a multiple of dt: the half run ends with a shortened step
+    full = run(spec, tmp_path / "full", duration=total)
+    half = run(spec, tmp_path / "half", duration=total / 2)
+    assert half.state.time == pytest.approx(total / 2, abs=1e-12)
+    cont = run(RunSpec.load(tmp_path / "half" / "run.toml"), tmp_path / "cont", duration=total / 2,
+               continue_from=tmp_path / "half")
+    assert cont.state.time == full.state.time
+    np.testing.assert_array_equal(cont.state.q, full.state.q)
+    np.testing.assert_array_equal(cont.state.v, full.state.v)
+    # the contact state was restored, not rebuilt from scratch
+    assert full.log["k_c"].iloc[-1] == cont.log["k_c"].iloc[-1]
+
+
+def test_continuing_without_the_checkpoint_differs(tmp_path):
+    """The test above can fail: starting the second half from the positions alone (no predictor
+    memory, no contact stiffness, no adaptive state) does not give the same answer."""
+    spec = RunSpec.load(EXAMPLES / "crossing_rods.toml")
+    full = run(spec, tmp_path / "full", duration=0.37)
+    run(spec, tmp_path / "half", duration=0.185)
+    data = RunSpec.load(tmp_path / "half" / "run.toml").to_dict()
+    for r, rod in enumerate(data["rods"]):
+        data["rods"][r] = {k: v for k, v in rod.items() if k not in ("length", "n_nodes", "start", "direction")}
+        data["rods"][r].update(shape="run", run=str(tmp_path / "half"), rod=r)
+    fresh = run(RunSpec.from_dict(data), tmp_path / "fresh", duration=0.185)
+    assert np.max(np.abs(fresh.state.q - full.state.q)) > 0.0
+
+
+def test_restored_run_rejects_other_rods(tmp_path):
+    run(RunSpec.load(EXAMPLES / "hanging_rod.toml"), tmp_path / "a", duration=0.01)
+    other = RunSpec.load(EXAMPLES / "hanging_rod.toml").to_dict()
+    other["rods"][0]["n_nodes"] = 21
+    with pytest.raises(ConfigError, match="same rods"):
+        build_run(RunSpec.from_dict(other), continue_from=tmp_path / "a")
+
+
+def test_run_file_in_output_dir_replays_bit_for_bit(tmp_path):
+    a = run(RunSpec.load(EXAMPLES / "crossing_rods.toml"), tmp_path / "a", duration=0.1)
+    b = run(RunSpec.load(tmp_path / "a" / "run.toml"), tmp_path / "b")
+    np.testing.assert_array_equal(a.state.q, b.state.q)
+
+
+def test_stages_chain_in_one_trajectory(tmp_path):
+    data = RunSpec.load(EXAMPLES / "hanging_rod.toml").to_dict()
+    data.pop("run", None)
+    data["stages"] = [
+        {"name": "hang", "duration": 0.02},
+        {"name": "lift", "duration": 0.03, "bc": [{"type": "move", "name": "tip", "rod": 0, "nodes": [-1],
+                                                  "velocity": [0.0, 0.0, 0.5]}]},
+        {"name": "drop", "duration": 0.02, "release": ["tip"]},
+    ]
+    res = run(RunSpec.from_dict(data), tmp_path / "s", raise_on_failure=True)
+    assert res.state.time == pytest.approx(0.07)
+    log = res.log
+    assert list(dict.fromkeys(log["stage"])) == ["hang", "lift", "drop"]
+    lift = log[log["stage"] == "lift"]
+    assert (lift["tip_fz"].abs() > 0).all()
+    assert (log[log["stage"] == "drop"]["tip_fz"] == 0).all()
+    traj = read_trajectory(tmp_path / "s" / "trajectory.h5")
+    assert traj.time[0] == 0.0 and traj.time[-1] == pytest.approx(0.07)
+
+
+def test_stage_release_of_unknown_group_is_named():
+    data = RunSpec.load(EXAMPLES / "hanging_rod.toml").to_dict()
+    data["stages"] = [{"name": "a", "duration": 0.1}, {"name": "b", "duration": 0.1, "release": ["nope"]}]
+    with pytest.raises(ConfigError, match=r"stages\[1\]\.release\[0\]"):
+        build_run(RunSpec.from_dict(data))
+
+
+# ------------------------------------------------------------------------------------------ geometry sources
+def _rod_table(**shape):
+    base = {"name": "r", "radius": 1e-3, "youngs_modulus": 1e6, "density": 1000.0}
+    base.update(shape)
+    return {"rods": [base], "run": {"duration": 0.002}, "solver": {"dt": 1e-3}}
+
+
+@pytest.mark.parametrize("suffix", [".txt", ".csv", ".npy", ".mat", ""])
+def test_node_files_of_every_format_give_the_same_rod(tmp_path, suffix):
+    x = np.column_stack([np.linspace(0, 0.1, 11), np.zeros(11), np.zeros(11)])
+    f = tmp_path / f"nodes{suffix}"
+    if suffix == ".npy":
+        np.save(f, x)
+    elif suffix == ".csv":
+        f.write_text("x,y,z\n" + "\n".join(",".join(map(repr, row.tolist())) for row in x))
+    elif suffix == ".mat":
+        from scipy.io import savemat
+
+        savemat(f, {"A": x.T})  # (3, N), as Patil's files
+    else:  # whitespace text with a fourth (theta) column, as imc-der's files
+        f.write_text("\n".join(" ".join(map(repr, row.tolist())) + " 0.0" for row in x))
+    table = _rod_table(shape="points", file=str(f), **({"matrix": "A"} if suffix == ".mat" else {}))
+    sim, cfg = build_run(RunSpec.from_dict(table))
+    np.testing.assert_allclose(cfg.model.node_positions(sim.state.q), x, rtol=0, atol=1e-15)
+
+
+def test_node_file_errors_name_the_field(tmp_path):
+    f = tmp_path / "bad.txt"
+    f.write_text("1 2\n3 4\n")
+    with pytest.raises(ConfigError, match=r"rods\[0\]\.file.*\(N, 3\)"):
+        build_run(RunSpec.from_dict(_rod_table(shape="points", file=str(f))))
+    with pytest.raises(ConfigError, match=r"rods\[0\]\.file.*not found"):
+        build_run(RunSpec.from_dict(_rod_table(shape="points", file=str(tmp_path / "missing.txt"))))
+
+
+def test_library_knot_shape():
+    table = _rod_table(shape="knot", knot="overhand_n1", n_nodes=81)
+    sim, cfg = build_run(RunSpec.from_dict(table))
+    assert cfg.model.n_nodes == 81
+
+
+def test_zero_length_edge_is_named(tmp_path):
+    from knotsim.protocols.geometry import geometry_from_source
+
+    x = np.column_stack([np.linspace(0, 0.1, 11), np.zeros(11), np.zeros(11)])
+    x[5] = x[4]
+    f = tmp_path / "dup.txt"
+    np.savetxt(f, x)
+    with pytest.raises(GeometryError, match=r"edge 4 \(nodes 4, 5\) has zero length"):
+        geometry_from_source(str(f), radius=1e-3)
+
+
+# ------------------------------------------------------------------------------------------ commands
+def test_pull_save_config_run_and_restart(tmp_path):
+    r = CliRunner()
+    a, cfg = tmp_path / "A", tmp_path / "A.toml"
+    res = r.invoke(main, ["pull", "overhand_n1", "--quick", "--set", "e_final=0.6", "-o", str(a), "--save-config",
+                          str(cfg)])
+    assert res.exit_code == 0, res.output
+    assert (a / "checkpoint.npz").is_file() and (a / "run.toml").is_file()
+    res = r.invoke(main, ["run", str(cfg), "-o", str(tmp_path / "B"), "-q"])
+    assert res.exit_code == 0, res.output
+    ta, xa = _last_positions(a)
+    tb, xb = _last_positions(tmp_path / "B")
+    assert ta == tb
+    assert np.max(np.abs(xa - xb)) <= 1e-9
+    half = repr(ta / 2)
+    assert r.invoke(main, ["run", str(cfg), "-o", str(tmp_path / "C"), "--duration", half, "-q"]).exit_code == 0
+    res = r.invoke(main, ["run", "--from", str(tmp_path / "C"), "-o", str(tmp_path / "D"), "--duration", half, "-q"])
+    assert res.exit_code == 0, res.output
+    td, xd = _last_positions(tmp_path / "D")
+    assert td == pytest.approx(tb, abs=1e-12)
+    assert np.max(np.abs(xd - xb)) <= 1e-9
+
+
+@pytest.mark.skipif(not (FOREIGN / "imc-der" / "n1").is_file(), reason="shared foreign data not beside the checkout")
+def test_pull_on_imc_der_nodes_then_continue_from_the_run(tmp_path):
+    r = CliRunner()
+    e = tmp_path / "E"
+    res = r.invoke(main, ["pull", "--geometry", str(FOREIGN / "imc-der" / "n1"), "--protocol", "overhand-pull",
+                          "--quick", "--set", "e_final=0.65", "-o", str(e)])
+    assert res.exit_code == 0, res.output
+    assert "n_nodes = 81 not applied" in res.output
+    assert "knot type: trefoil_left -> trefoil_left" in res.output
+    log_e = pd.read_parquet(e / "log.parquet")
+    f = tmp_path / "F"
+    res = r.invoke(main, ["pull", "--geometry", str(e), "--quick", "--set", "e_final=0.6", "-o", str(f)])
+    assert res.exit_code == 0, res.output
+    assert "overhand-pull" in res.output  # the protocol of the earlier run
+    log_f = pd.read_parquet(f / "log.parquet")
+    # the rope goes on physically: tension and stretch carry over (not restarted from rest)
+    assert log_f["F"].iloc[0] == pytest.approx(log_e["F"].iloc[-1], rel=0.05)
+    assert log_f["energy_stretching"].iloc[0] == pytest.approx(log_e["energy_stretching"].iloc[-1], rel=0.1)
+
+
+def test_pull_needs_a_knot_or_a_geometry(tmp_path):
+    res = CliRunner().invoke(main, ["pull", "-o", str(tmp_path / "x")])
+    assert res.exit_code == 2
+    assert "KNOT or --geometry" in res.output
+
+
+def test_tie_lists_sequences():
+    res = CliRunner().invoke(main, ["tie", "--list"])
+    assert res.exit_code == 0
+    assert {"overhand", "reef", "granny"} <= set(res.output.split())
+
+
+def test_run_dir_without_checkpoint_cannot_be_continued(tmp_path):
+    run(RunSpec.load(EXAMPLES / "hanging_rod.toml"), tmp_path / "a", duration=0.01)
+    (tmp_path / "a" / "checkpoint.npz").unlink()
+    shutil.copy(tmp_path / "a" / "run.toml", tmp_path / "run.toml")
+    with pytest.raises(ConfigError, match="no checkpoint.npz"):
+        build_run(RunSpec.load(tmp_path / "run.toml"), continue_from=tmp_path / "a")
