@@ -1,23 +1,68 @@
-"""knotsim: Discrete Elastic Rods with implicit frictional contact, for tying knots."""
+"""knotsim: Discrete Elastic Rods with implicit frictional contact, for tying knots and measuring
+how strong they are.
+
+``import knotsim as ks`` is all a user needs::
+
+    rope = ks.RodSpec(x, radius=1.6e-3, youngs_modulus=0.18e6, density=1180)
+    model = ks.Model([rope], damping=0.01)
+    bcs = ks.BoundaryConditions(model)
+    contact = ks.Contact(model, ks.ContactOptions(mu=0.3))
+    log = ks.Simulation(model, bcs, ks.SolverOptions(dt=2.5e-3), interactions=[contact]).run(2.0)
+
+    summary = ks.run_protocol("overhand-pull", knot="overhand_n1", quick=True)   # knot strength
+    result = ks.run(ks.RunSpec.load("examples/hanging_rod.toml"), "out")        # a run file
+
+Names are loaded on first use, so that ``import knotsim`` stays fast. Input bundles are called
+``...Spec`` (what a thing is: ``RodSpec``, ``RunSpec``) or ``...Options`` (how to compute:
+``SolverOptions``, ``ContactOptions``). Every time-dependent callable of a boundary condition
+(paths, twist angles) takes the time elapsed since its group became active (s); loads (forces,
+moments) take the absolute simulation time (s).
+"""
+
+from __future__ import annotations
+
+import importlib
 
 from knotsim.errors import ConfigError, GeometryError, KnotsimError, PenetrationError, SimulationError
 
 __version__ = "0.1.0"
 
+#: public name -> module that defines it
+_LAZY = {
+    # rods and model
+    "RodSpec": "knotsim.rods", "Model": "knotsim.rods", "State": "knotsim.solver.state",
+    # boundary conditions
+    "BoundaryConditions": "knotsim.bc", "Waypoints": "knotsim.bc", "ConstantVelocity": "knotsim.bc",
+    "FunctionPath": "knotsim.bc",
+    # contact
+    "Contact": "knotsim.contact.model", "ContactOptions": "knotsim.contact.model",
+    # solver and simulation
+    "SolverOptions": "knotsim.solver.stepper", "Simulation": "knotsim.simulation",
+    "solve_static": "knotsim.solver.static",
+    # runs
+    "RunSpec": "knotsim.run", "RunResult": "knotsim.run", "build_run": "knotsim.run", "run": "knotsim.run",
+    "read_checkpoint": "knotsim.io.checkpoint", "read_trajectory": "knotsim.io.trajectory",
+    # knots
+    "get_knot": "knotsim.knots.library", "list_knots": "knotsim.knots.library", "analyze": "knotsim.knots.topology",
+    "tie_from_straight": "knotsim.knots.tying", "list_tying_sequences": "knotsim.knots.tying",
+    # protocols and studies
+    "run_protocol": "knotsim.protocols", "build_protocol_run": "knotsim.protocols", "protocols": "knotsim.protocols",
+    "run_study": "knotsim.study", "load_study": "knotsim.study", "write_report": "knotsim.study",
+}
 
-def load_study(study_dir):
-    """Results table of a study directory as a pandas DataFrame (see :mod:`knotsim.study`)."""
-    from knotsim.study import load_study as _load
 
-    return _load(study_dir)
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'knotsim' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
 
 
-__all__ = [
-    "ConfigError",
-    "GeometryError",
-    "KnotsimError",
-    "PenetrationError",
-    "SimulationError",
-    "__version__",
-    "load_study",
-]
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
+
+__all__ = ["ConfigError", "GeometryError", "KnotsimError", "PenetrationError", "SimulationError", "__version__",
+           *sorted(_LAZY)]

@@ -64,7 +64,7 @@ PENETRATION_BOOST = 4.0
 #: ``margin`` since the last build.
 REBUILD_FRACTION = 0.5
 
-__all__ = ["ContactInteraction", "ContactSettings", "contact_from_config"]
+__all__ = ["Contact", "ContactInteraction", "ContactOptions", "ContactSettings", "contact_from_config"]
 
 
 def _positive(name: str, value, allow_zero: bool = False) -> float:
@@ -77,7 +77,7 @@ def _positive(name: str, value, allow_zero: bool = False) -> float:
 
 
 @dataclass
-class ContactSettings:
+class ContactOptions:
     """Settings of :class:`ContactInteraction` (SI units).
 
     - ``delta``: IMC distance tolerance δ (m), default 5e-4;
@@ -149,6 +149,10 @@ class ContactSettings:
             raise ConfigError("contact.self_contact", f"must be true or false, got {self.self_contact!r}")
 
 
+#: Former name of :class:`ContactOptions`.
+ContactSettings = ContactOptions
+
+
 @dataclass
 class _Eval:
     """Results of the last kernel evaluation (per pair)."""
@@ -159,7 +163,7 @@ class _Eval:
     ff: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)))
 
 
-class ContactInteraction:
+class Contact:
     """Edge-edge contact (IMC) and friction of all rods of a model; a stepper ``Interaction``.
 
     Attributes
@@ -474,6 +478,10 @@ class ContactInteraction:
         # the stepper asks for stats only for an accepted step: its contact force drives k_c
         self._fmax_accepted = self._fmax_pending
         return dict(self._stats)
+
+
+#: Former name of :class:`Contact`.
+ContactInteraction = Contact
 
 
 def contact_from_config(model, table: dict) -> list:

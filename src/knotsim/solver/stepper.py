@@ -51,7 +51,7 @@ class StepFailure(Exception):
 
 
 @dataclass
-class SolverSettings:
+class SolverOptions:
     """Settings of the Newton solver and time stepper.
 
     - ``dt``: target time step, s; ``dt_min``: smallest step before giving up (default ``dt/1024``);
@@ -104,6 +104,10 @@ class SolverSettings:
         if self.predictor not in ("velocity", "acceleration", "previous"):
             raise ConfigError("solver.predictor",
                               f"must be 'velocity', 'acceleration' or 'previous', got {self.predictor!r}")
+
+
+#: Former name of :class:`SolverOptions`.
+SolverSettings = SolverOptions
 
 
 @dataclass
