@@ -1,0 +1,40 @@
+"""Style and layout checks that run with the test suite (so CI runs them)."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.skipif(shutil.which("ruff") is None and subprocess.run(
+    [sys.executable, "-m", "ruff", "--version"], capture_output=True).returncode != 0,
+    reason="ruff is not installed (it is in the dev extra)")
+def test_ruff_is_clean():
+    res = subprocess.run([sys.executable, "-m", "ruff", "check", "src", "tests", "benchmarks", "validation"],
+                         cwd=ROOT, capture_output=True, text=True)
+    assert res.returncode == 0, res.stdout + res.stderr
+
+
+def test_package_imports_without_heavy_modules():
+    """``import knotsim`` (and so ``knotsim --help``) does not import numba kernels."""
+    code = "import sys, knotsim; print('knotsim.simulation' in sys.modules, 'numba' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["False", "False"]
+
+
+def test_library_code_never_prints_or_exits():
+    offenders = []
+    for f in (ROOT / "src" / "knotsim").rglob("*.py"):
+        if f.name in ("cli.py", "_cli_errors.py") or "cli" in f.parts[-1]:
+            continue
+        for n, line in enumerate(f.read_text().splitlines(), 1):
+            s = line.strip()
+            if s.startswith(("print(", "sys.exit(")) or " print(" in s.split("#")[0]:
+                offenders.append(f"{f.relative_to(ROOT)}:{n}: {s}")
+    assert not offenders, "\n".join(offenders)
