@@ -47,7 +47,7 @@ from knotsim.protocols import run_protocol  # noqa: E402
 
 OUT = Path(__file__).parent / "reports"
 
-#: Published mean F h^2/EI over the 13 s pull (physics-notes 5).
+#: Published mean F h^2/EI over the 13 s pull (docs/physics.md §5.1).
 PUBLISHED_MEAN = {("granny", 0.1): 0.264, ("granny", 0.5): 0.641, ("reef", 0.1): 0.367, ("reef", 0.5): 0.834}
 #: Published F h^2/EI against pull time at mu = 0.1 (read off a figure, +-0.03).
 PUBLISHED_TIME = {"granny": {2.5: 0.02, 5.0: 0.05, 7.5: 0.12, 10.0: 0.30, 12.5: 0.62},

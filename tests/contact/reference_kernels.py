@@ -200,7 +200,7 @@ def ref_imc_energy_derivatives(delta, d, tol, dps=50):
 
 
 def ref_imc_energy_report_eq5(delta, d, tol):
-    """The midterm report's literal eq. 5 (with the ``(d − Δ)²`` branch below d − δ)."""
+    """Eq. 5 as printed (docs/physics.md §6.2) (with the ``(d − Δ)²`` branch below d − δ)."""
     k1 = 15.0 / tol
     if delta <= d - tol:
         return (d - delta) ** 2
@@ -219,7 +219,7 @@ def ref_gamma(s, nu):
 
 
 def ref_friction(p, p_prev, dt, mu, nu, fc, beta_i, beta_j):
-    """Friction on the 4 nodes (12,), physics-notes section 3 with errata, written literally."""
+    """Friction on the 4 nodes (12,), docs/physics.md §3.1 with the errata of §6.3–6.4, written literally."""
     p = np.asarray(p, dtype=float)
     v = (p - np.asarray(p_prev, dtype=float)) / dt
     F = np.asarray(fc, dtype=float).reshape(4, 3)

@@ -1,4 +1,4 @@
-"""The ``knots`` and ``tie`` commands."""
+"""The ``knots``, ``pull`` and ``tie`` commands."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import json
 
 from click.testing import CliRunner
 
-from knotsim.protocols.cli import knots, tie
+from knotsim.protocols.cli import knots, pull, tie
 
 
 def test_knots_lists_library():
@@ -18,16 +18,22 @@ def test_knots_lists_library():
     assert len(lines) >= 10
 
 
-def test_tie_quick_and_bad_key(tmp_path):
-    out = tmp_path / "tie"
-    res = CliRunner().invoke(tie, ["overhand_n1", "--quick", "-o", str(out), "--set", "duration=0.5",
+def test_pull_quick_and_bad_key(tmp_path):
+    out = tmp_path / "pull"
+    res = CliRunner().invoke(pull, ["overhand_n1", "--quick", "-o", str(out), "--set", "duration=0.5",
                                    "--set", "n_nodes=61"])
     assert res.exit_code == 0, res.output
     assert "overhand-pull" in res.output and "F_norm_peak" in res.output
     s = json.loads((out / "summary.json").read_text())
     assert s["parameters"]["n_nodes"] == 61
-    bad = CliRunner().invoke(tie, ["overhand_n1", "-o", str(tmp_path / "x"), "--set", "nope=1"])
+    bad = CliRunner().invoke(pull, ["overhand_n1", "-o", str(tmp_path / "x"), "--set", "nope=1"])
     assert bad.exit_code == 2
     assert "nope" in bad.output
-    bad = CliRunner().invoke(tie, ["no_such_knot", "-o", str(tmp_path / "y")])
+    bad = CliRunner().invoke(pull, ["no_such_knot", "-o", str(tmp_path / "y")])
     assert bad.exit_code == 2
+
+
+def test_tie_unknown_sequence_is_bad_input(tmp_path):
+    res = CliRunner().invoke(tie, ["bowline", "-o", str(tmp_path / "t")])
+    assert res.exit_code == 2
+    assert "unknown tying sequence" in res.output

@@ -3,7 +3,7 @@
 A pair of edges ``(a, b)`` is a *candidate* when the minimum distance between the two segments is
 below the pair's cut-off ``edge_radius[a] + edge_radius[b] + extra`` (m), unless both edges belong
 to the same rod and are fewer than 3 edges apart along it (measured cyclically on closed rods):
-such neighbours always "touch" and are never candidates (physics notes, section 2; the rule lives
+such neighbours always "touch" and are never candidates (docs/physics.md §2.1; the rule lives
 in :mod:`knotsim.geometry.exclusion`).
 
 Algorithm (linear in the number of edges for bounded density):

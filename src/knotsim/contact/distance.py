@@ -15,7 +15,7 @@ the minimiser decides the *case* and the closed form used for the derivatives:
   ``x1`` of edge i against the interior of edge j; ``CASE_EP_0`` / ``CASE_EP_1``: node ``x2`` /
   ``x3`` of edge j against the interior of edge i;
 * edge–edge (both ratios interior), ``Δ = |(x0 − x2) · û|``, ``û = u/|u|``, ``u = (x1 − x0) × (x3 − x2)``
-  (the corrected eq. 4 of the midterm report).
+  (docs/physics.md §2.2 with the erratum §6.1).
 
 Each closed form is smooth inside its region, and the derivatives returned are those of the
 closed form of the active case (so finite differences that straddle a case boundary may differ).

@@ -1,6 +1,6 @@
 """Smooth Coulomb friction of one contact pair, fully implicit (Tong, Choi, Joo, Jawed 2022).
 
-Physics-notes section 3 with its errata applied. For edge i (nodes ``x0, x1``) and edge j
+The law of docs/physics.md §3.1 with the errata of §6.3–6.4 applied. For edge i (nodes ``x0, x1``) and edge j
 (nodes ``x2, x3``), all evaluated at the Newton iterate ``p`` with velocities
 ``v = (p − p_prev)/dt`` (m/s):
 

@@ -1,4 +1,4 @@
-"""IMC contact potential of one edge pair (Choi, Tong, Jawed, Joo 2021; midterm report eq. 5).
+"""IMC contact potential of one edge pair (Choi, Tong, Jawed, Joo 2021; eq. 5 of the IMC paper as restated in docs/physics.md §2.4).
 
 With ``d = h_a + h_b`` the contact distance (m), ``δ`` the distance tolerance (m) and
 ``K1 = 15/δ`` (1/m), the energy of a pair at distance ``Δ`` is (units m²; the caller multiplies by
@@ -9,7 +9,7 @@ the contact stiffness ``k_c`` in N/m, so that the force is ``−k_c ∇E`` in N)
 
 ``softplus(z) = log(1 + exp(z))``, evaluated without overflow as ``max(z, 0) + log1p(exp(−|z|))``.
 
-Treatment of the joins (physics-notes errata to eq. 5). The report uses ``(d − Δ)²`` below
+Treatment of the joins (docs/physics.md §6.2, erratum to eq. 5 of Choi et al. 2021). The report uses ``(d − Δ)²`` below
 ``d − δ``; that branch joins the smooth one only approximately. Here the smooth branch is used
 everywhere below ``d + δ``, so ``E``, ``E'`` and ``E''`` are exactly consistent with each other
 and infinitely smooth across ``Δ = d − δ``. Below ``d − δ`` (``z ≥ 15``) it differs from

@@ -2,7 +2,7 @@
 
 Edges ``i`` and ``j`` of one rod with ``n`` edges are ``k = |i - j|`` edges apart (on a closed rod,
 cyclically: ``k = min(|i - j|, n - |i - j|)``). Neighbours always "touch" geometrically and are never
-contact pairs (physics notes, section 2):
+contact pairs (docs/physics.md §2.1):
 
 * the contact broad phase skips every same-rod pair with ``k < MIN_INDEX_GAP`` (3);
 * on finely meshed rods that is not enough (with edges shorter than ``d / 2`` even a straight rod has

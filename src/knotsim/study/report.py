@@ -8,7 +8,7 @@
 - for a study with the MAE259B shape (a knot axis with granny and reef, a friction axis ``mu``):
   ``F h²/EI`` against time for granny and reef at μ = 0.1 and 0.5 (from each case's
   ``log.parquet``, column ``F_norm``), and the mean ``F h²/EI`` (metric ``F_norm_mean``) against μ
-  beside the published values (physics-notes section 5);
+  beside the published values (docs/physics.md §5);
 - generic plots: each numeric metric against each swept parameter, one line per combination of
   the other swept parameters (mean and spread over repeats).
 
@@ -31,7 +31,7 @@ from knotsim.errors import ConfigError
 
 __all__ = ["MAE259B_PUBLISHED", "write_report"]
 
-#: Published mean F h²/EI over a 13 s pull (MAE259B; physics-notes section 5), by knot, at μ = 0.1 ... 0.5.
+#: Published mean F h²/EI over a 13 s pull (MAE259B; docs/physics.md §5), by knot, at μ = 0.1 ... 0.5.
 MAE259B_PUBLISHED = {
     "mu": [0.1, 0.2, 0.3, 0.4, 0.5],
     "granny": [0.264, 0.297, 0.519, 0.576, 0.641],

@@ -1,4 +1,4 @@
-"""Cantilever under its own weight (physics-notes section 5).
+"""Cantilever under its own weight (docs/physics.md §5).
 
 A rod of free length ``L`` is clamped at one end: its first edge (nodes 0 and 1, with its twist) is
 clamped and straddles the wall, whose plane passes through the edge's midpoint. The bending stencil

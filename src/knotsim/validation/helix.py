@@ -1,4 +1,4 @@
-"""Free rod with uniform natural curvature and twist rests as a helix (physics-notes section 5).
+"""Free rod with uniform natural curvature and twist rests as a helix (docs/physics.md §5).
 
 Continuum answer: radius ``kbar / (kbar^2 + tbar^2)``, pitch ``2 pi tbar / (kbar^2 + tbar^2)``.
 The rod starts straight with one end clamped (the clamp exerts no force at the stress-free
