@@ -104,6 +104,10 @@ def build_run(spec: RunSpec | dict | str | os.PathLike, *, duration: float | Non
     cfg = load_config(rs.data, base_dir=rs.base_dir, duration=duration)
     cfg.raw = RunSpec(cfg.raw, rs.base_dir).to_dict()
     sim = build_simulation(cfg)
+    if continue_from is None:
+        for inter in sim.stepper.interactions:
+            if hasattr(inter, "check_start"):
+                inter.check_start(sim.state.q)
     if continue_from is not None:
         d = Path(continue_from)
         ckpt_path = d / "checkpoint.npz"

@@ -210,3 +210,14 @@ def test_run_dir_without_checkpoint_cannot_be_continued(tmp_path):
     shutil.copy(tmp_path / "a" / "run.toml", tmp_path / "run.toml")
     with pytest.raises(ConfigError, match="no checkpoint.npz"):
         build_run(RunSpec.load(tmp_path / "run.toml"), continue_from=tmp_path / "a")
+
+
+def test_rods_overlapping_at_the_start_are_named():
+    def rod(name, y):
+        return {"name": name, "shape": "straight", "length": 0.1, "n_nodes": 11, "start": [0.0, y, 0.0],
+                "radius": 1e-3, "youngs_modulus": 1e6, "density": 1000.0}
+    table = {"rods": [rod("a", 0.0), rod("b", 1.0e-3)], "contact": {"mu": 0.0}, "run": {"duration": 0.01}}
+    with pytest.raises(GeometryError, match=r"rods overlap at the start: rod 'a' edge \d+ and rod 'b' edge \d+"):
+        build_run(RunSpec.from_dict(table))
+    table["rods"][1]["start"] = [0.0, 2.5e-3, 0.0]  # 0.25 mm clear: accepted
+    build_run(RunSpec.from_dict(table))

@@ -392,6 +392,34 @@ class Contact:
                             f"vector between their closest points turned by {angle:.0f} deg)")
         return None
 
+    def check_start(self, q) -> None:
+        """Raise :class:`~knotsim.errors.GeometryError` when two rods (or two parts of one rod that
+        may touch) overlap at ``q`` deeper than ``penetration_limit`` times the smaller radius: the
+        first step would be rejected, and a penalty model cannot undo a start inside the other rope.
+        The message names the rods, edges and distance."""
+        from knotsim.errors import GeometryError
+        from knotsim.geometry.segments import segment_distances
+
+        m = self.model
+        pairs = self._broad_phase(q, 0.0)
+        if not pairs.shape[0]:
+            return
+        x = m.node_positions(q)
+        en = m.edge_nodes
+        d, _, _ = segment_distances(x[en[pairs[:, 0], 0]], x[en[pairs[:, 0], 1]], x[en[pairs[:, 1], 0]],
+                                    x[en[pairs[:, 1], 1]])
+        ra, rb = m.edge_radius[pairs[:, 0]], m.edge_radius[pairs[:, 1]]
+        depth = (ra + rb - d) / np.minimum(ra, rb)
+        k = int(np.argmax(depth))
+        if depth[k] > self.settings.penetration_limit:
+            a, b = (int(v) for v in pairs[k])
+            name = lambda e: f"rod {m.rod_names[m.edge_rod[e]]!r} edge {int(m.edge_local[e])}"  # noqa: E731
+            raise GeometryError(
+                f"the rods overlap at the start: {name(a)} and {name(b)} are {d[k]:.4g} m apart, "
+                f"{depth[k]:.2f} radii closer than contact ({ra[k] + rb[k]:.4g} m; limit "
+                f"{self.settings.penetration_limit} radii); move them apart, scale the geometry, or use a "
+                f"smaller radius")
+
     def save_state(self) -> tuple[dict, dict]:
         """What decides the next steps besides the rods' state: the stiffness ``k_c`` and the forces
         that drive it, and the Verlet pair list with the positions it was built at. ``(scalars,
