@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from knotsim.solver.lu import ZeroPivotError
+from knotsim.solver.lu import FixedPatternLU, ZeroPivotError
 from knotsim.solver.lu.numeric import column_max_abs
 from knotsim.solver.lu.symbolic import check_csc_pattern, etree, l_counts, ordered_pattern
 
@@ -236,11 +236,10 @@ class UpLookingLU:
         self.nnz_L = int(self.Lp[n])
         self.factorized = False
 
-    @classmethod
-    def from_matrix(cls, A, **kwargs) -> UpLookingLU:
-        """Analyse the pattern of a scipy sparse matrix ``A`` ``(n, n)`` (converted to CSC)."""
-        A = A.tocsc()
-        return cls(A.shape[0], A.indptr, A.indices, **kwargs)
+    # the same pattern intake, right-hand-side checks and factorize-then-solve as the production LU
+    from_matrix = FixedPatternLU.__dict__["from_matrix"]
+    _rhs_and_out = FixedPatternLU._rhs_and_out
+    factorize_solve = FixedPatternLU.factorize_solve
 
     def factorize(self, data) -> None:
         """Numeric factorisation for values ``data`` ``(nnz,)``; :class:`ZeroPivotError` on a bad pivot."""
@@ -279,13 +278,7 @@ class UpLookingLU:
 
     def solve(self, rhs, out=None) -> np.ndarray:
         """Solve ``A x = rhs`` (``(n,)`` or ``(n, m)``) with the last factorisation; ``out`` may be ``rhs``."""
-        if not self.factorized:
-            raise RuntimeError("solve: no valid factorisation (call factorize first)")
-        b = np.asarray(rhs, dtype=np.float64)
-        if b.shape[0] != self.n:
-            raise ValueError(f"rhs: expected {self.n} rows, got {b.shape[0]}")
-        if out is None:
-            out = np.empty_like(b)
+        b, out = self._rhs_and_out(rhs, out)
         if b.ndim == 1:
             _solve(self.n, self.perm, self.Lp, self.Li, self.Lx, self.Ux, self.Ud, b, out, self._y)
         else:
@@ -293,8 +286,3 @@ class UpLookingLU:
                 self.n, self.perm, self.Lp, self.Li, self.Lx, self.Ux, self.Ud, b, out, np.empty_like(b)
             )
         return out
-
-    def factorize_solve(self, data, rhs, out=None) -> np.ndarray:
-        """:meth:`factorize` with ``data`` ``(nnz,)`` then :meth:`solve` ``rhs``."""
-        self.factorize(data)
-        return self.solve(rhs, out)

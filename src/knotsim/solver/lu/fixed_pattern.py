@@ -225,13 +225,7 @@ class FixedPatternLU:
         ``rhs`` ``(n,)`` or ``(n, m)``; ``out`` optional output of the same shape (may be ``rhs``
         itself for an in-place solve). Returns ``x`` with the shape of ``rhs``.
         """
-        if not self.factorized:
-            raise RuntimeError("solve: no valid factorisation (call factorize first)")
-        b = np.asarray(rhs, dtype=np.float64)
-        if b.shape[0] != self.n:
-            raise ValueError(f"rhs: expected {self.n} rows, got {b.shape[0]}")
-        if out is None:
-            out = np.empty_like(b)
+        b, out = self._rhs_and_out(rhs, out)
         factors = (self.perm, self._sf, self._rp, self._ri, self._poff, self._PL, self._PU)
         if b.ndim == 1:
             mf_solve(*factors, b, out, self._y)
@@ -243,6 +237,17 @@ class FixedPatternLU:
                 mf_solve(*factors, col_in, col_out, self._y)
                 out[:, c] = col_out
         return out
+
+    def _rhs_and_out(self, rhs, out) -> tuple[np.ndarray, np.ndarray]:
+        """Checked float64 ``rhs`` ``(n,)`` or ``(n, m)`` and the output array (new if ``out`` is None)."""
+        if not self.factorized:
+            raise RuntimeError("solve: no valid factorisation (call factorize first)")
+        b = np.asarray(rhs, dtype=np.float64)
+        if b.shape[0] != self.n:
+            raise ValueError(f"rhs: expected {self.n} rows, got {b.shape[0]}")
+        if out is None:
+            out = np.empty_like(b)
+        return b, out
 
     def factorize_solve(self, data, rhs, out=None) -> np.ndarray:
         """:meth:`factorize` with ``data`` ``(nnz,)`` then :meth:`solve` ``rhs`` ``(n,)`` or ``(n, m)``."""
