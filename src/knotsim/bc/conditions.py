@@ -128,7 +128,18 @@ class BoundaryConditions:
 
         return initial_state(self.model).q
 
+    def _rod(self, name, rod):
+        """``rod`` (index or name); ``None`` means rod 0 in a one-rod model and is an error naming
+        ``bc.<name>.rod`` in a model with several rods (which rod is meant cannot be guessed)."""
+        if rod is None:
+            if self.model.n_rods == 1:
+                return 0
+            raise ConfigError(f"bc.{name}.rod", f"the model has {self.model.n_rods} rods "
+                              f"({', '.join(map(repr, self.model.rod_names))}); say which one: rod = NAME or index")
+        return rod
+
     def _group_nodes(self, name, rod, nodes):
+        rod = self._rod(name, rod)
         try:
             r = self.model.rod_index(rod)
             g = self.model.global_nodes(r, nodes)
@@ -136,7 +147,7 @@ class BoundaryConditions:
             raise ConfigError(f"bc.{name}.{exc.field}", str(exc).split(": ", 1)[1]) from None
         return r, np.unique(g)
 
-    def clamp(self, name: str, rod=0, nodes: Sequence[int] = (0, 1), twist: bool = True,
+    def clamp(self, name: str, rod=None, nodes: Sequence[int] = (0, 1), twist: bool = True,
               start: float = 0.0, stop: float | None = None) -> Group:
         """Fix the positions of ``nodes`` (and, with ``twist``, the angles of the edges between them)
         at their values when the group becomes active."""
@@ -146,7 +157,7 @@ class BoundaryConditions:
         return self._add(Group(name, "clamp", r, g, self._edges_within(g) if twist else np.zeros(0, np.int64),
                                start, stop, fix_twist=twist))
 
-    def hold(self, name: str, rod=0, nodes: Sequence[int] = (0,), start: float = 0.0,
+    def hold(self, name: str, rod=None, nodes: Sequence[int] = (0,), start: float = 0.0,
              stop: float | None = None) -> Group:
         """Hold ``nodes`` at the positions they have when the group becomes active (twist free)."""
         self._check_name(name)
@@ -154,7 +165,7 @@ class BoundaryConditions:
         r, g = self._group_nodes(name, rod, nodes)
         return self._add(Group(name, "hold", r, g, np.zeros(0, np.int64), start, stop))
 
-    def move(self, name: str, rod=0, nodes: Sequence[int] = (-2, -1), path=None, twist: bool = True,
+    def move(self, name: str, rod=None, nodes: Sequence[int] = (-2, -1), path=None, twist: bool = True,
              start: float = 0.0, stop: float | None = None) -> Group:
         """Move ``nodes`` rigidly along ``path``: a :class:`~knotsim.bc.paths.Path`, a velocity
         (3-vector, m/s), or a callable of elapsed time returning a displacement (m)."""
@@ -170,7 +181,7 @@ class BoundaryConditions:
         return self._add(Group(name, "move", r, g, self._edges_within(g) if twist else np.zeros(0, np.int64),
                                start, stop, fix_twist=twist, path=p))
 
-    def rotate(self, name: str, rod=0, nodes: Sequence[int] = (-2, -1), rate: float | None = None,
+    def rotate(self, name: str, rod=None, nodes: Sequence[int] = (-2, -1), rate: float | None = None,
                angle: Callable[[float], float] | None = None, start: float = 0.0,
                stop: float | None = None) -> Group:
         """Clamp ``nodes`` and twist the edges between them: the edge angles grow by ``rate`` (rad/s)
@@ -193,7 +204,7 @@ class BoundaryConditions:
             raise ConfigError(f"bc.{name}.nodes", "rotating needs at least two adjacent nodes (one edge to twist)")
         return self._add(Group(name, "rotate", r, g, edges, start, stop, fix_twist=True, twist_angle=fn))
 
-    def force(self, name: str, rod=0, nodes: Sequence[int] = (-1,), force=(0.0, 0.0, 0.0),
+    def force(self, name: str, rod=None, nodes: Sequence[int] = (-1,), force=(0.0, 0.0, 0.0),
               start: float = 0.0, stop: float | None = None) -> Group:
         """Apply a total force (N; a 3-vector or a callable of absolute time) split equally over
         ``nodes``."""
@@ -203,12 +214,12 @@ class BoundaryConditions:
         load = _as_load(name, force, (3,))
         return self._add(Group(name, "force", r, g, np.zeros(0, np.int64), start, stop, load=load))
 
-    def moment(self, name: str, rod=0, edges: Sequence[int] = (-1,), moment=0.0, start: float = 0.0,
+    def moment(self, name: str, rod=None, edges: Sequence[int] = (-1,), moment=0.0, start: float = 0.0,
                stop: float | None = None) -> Group:
         """Apply a twisting moment (N m, scalar or callable of absolute time) on each of ``edges``."""
         self._check_name(name)
         start, stop = self._check_window(name, start, stop)
-        r = self.model.rod_index(rod)
+        r = self.model.rod_index(self._rod(name, rod))
         ne = int(self.model.rod_n_edges[r])
         idx = np.atleast_1d(np.asarray(edges))
         if np.any((idx < -ne) | (idx >= ne)):

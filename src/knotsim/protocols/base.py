@@ -90,6 +90,8 @@ class LoadingProtocol:
     fixed_geometry: tuple[str, ...] = ()
     #: Overrides applied with ``quick=True`` (coarse, short runs).
     quick: dict[str, Any] = {}
+    #: Number of ropes the protocol loads (``None``: as many as its :attr:`default_knot` has).
+    n_ropes: int | None = None
 
     # -- hooks ---------------------------------------------------------------------------
     def setup(self, ctx: RunContext) -> None:
@@ -120,6 +122,11 @@ class LoadingProtocol:
     def slipped(self, ctx: RunContext, metrics: dict) -> bool:
         """Whether the metrics say the knot slipped (used in the outcome)."""
         return False
+
+    def verdict(self, ctx: RunContext, metrics: dict) -> str | None:
+        """``"slipped"``, ``"loose"`` (never tightened) or ``"undecided"`` (too short to tell) from
+        the metrics, or ``None`` when the knot held (default: ``"slipped"`` when :meth:`slipped`)."""
+        return "slipped" if self.slipped(ctx, metrics) else None
 
     def topology_key(self, ctx: RunContext, topo: dict) -> str | None:
         """What must be equal at the start and the end for the knot to count as unchanged (default:
@@ -191,6 +198,26 @@ def _geometry_keys(p: Params, geo) -> None:
     p.values["length"] = float(geo.length)
 
 
+def _rope_count(proto: LoadingProtocol) -> int:
+    from knotsim.knots.library import load_knot_spec
+
+    return proto.n_ropes if proto.n_ropes is not None else len(load_knot_spec(proto.default_knot).ropes)
+
+
+def _check_fit(proto: LoadingProtocol, geo) -> None:
+    """:class:`ConfigError` (field ``protocol``) when ``geo`` has another number of ropes than
+    ``proto`` loads, naming the protocols that fit."""
+    from knotsim.protocols.registry import protocols
+
+    want, have = _rope_count(proto), len(geo.ropes)
+    if want == have:
+        return
+    fits = [p.name for p in protocols().values() if _rope_count(p) == have]
+    rope = lambda n: f"{n} rope" + ("s" if n != 1 else "")  # noqa: E731
+    raise ConfigError("protocol", f"{proto.name} loads {rope(want)}, but {geo.name} has {rope(have)}; "
+                                  + (f"use --protocol {' or '.join(fits)}" if fits else "no protocol fits it"))
+
+
 def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | None = None,
                        overrides: dict | None = None, quick: bool = False):
     """The run description of protocol ``name`` on a library ``knot`` or on ``geometry`` (a node
@@ -233,6 +260,7 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
         if geo.kind == "run" and overrides and "radius" in overrides and overrides["radius"] != geo.radius:
             raise ConfigError("radius", f"the run {geometry!r} was computed with radius {geo.radius} m; "
                                         "continuing it with another radius is not the same rope")
+    _check_fit(proto, geo)
     _geometry_keys(params, geo)
     p = params
     rods = []
@@ -333,9 +361,10 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     model = cfg.model
     curves = [model.rod_positions(sim.state.q, r) for r in range(model.n_rods)]
     topo_end = _topology(*proto.closure(ctx, curves))
+    ctx.data["topology_end"] = topo_end
     metrics = proto.metrics(ctx, log) if len(log) else {}
-    slipped = proto.slipped(ctx, metrics)
-    status = knot_status(*topology_keys(proto, ctx, topo_start, topo_end), slipped)
+    verdict = proto.verdict(ctx, metrics) if len(log) else "undecided"
+    status = knot_status(*topology_keys(proto, ctx, topo_start, topo_end), verdict=verdict)
     if status == "changed knot type":
         outcome = f"changed knot type ({topo_start['signature']} -> {topo_end['signature']})"
     elif status == "unknown":

@@ -89,8 +89,8 @@ def parse_bc(t, i: int) -> BCSpec:
     name = get_field(t, "name", path, as_string, f"{kind}{i}")
     if not name:
         raise ConfigError(f"{path}.name", "must not be empty")
-    rod = t.get("rod", 0)
-    if not (isinstance(rod, str) or (isinstance(rod, int) and not isinstance(rod, bool))):
+    rod = t.get("rod")  # None: rod 0 of a one-rod model, an error with several rods (BoundaryConditions)
+    if rod is not None and not (isinstance(rod, str) or (isinstance(rod, int) and not isinstance(rod, bool))):
         raise ConfigError(f"{path}.rod", f"expected a rod name or index, got {rod!r} ({type_name(rod)})")
     start = get_field(t, "start", path, as_number, 0.0, nonneg=True)
     stop = get_field(t, "stop", path, as_number, None)
