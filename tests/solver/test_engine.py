@@ -171,3 +171,19 @@ def test_failure_message_says_where_the_residual_is_largest():
         sim.run(0.05, progress=False)
     msg = str(info.value)
     assert "largest residual" in msg and "at rod" in msg and ("node" in msg or "edge" in msg), msg
+
+
+def test_huge_end_force_is_a_simulation_error_not_a_traceback():
+    """A 1e9 N compressive end force makes a Newton trial divide by zero (an edge collapsed to a
+    point): that is a failed step that is halved, then a SimulationError with the last good state."""
+    rod = straight(n=11, length=0.1)
+    m = Model([rod])
+    bcs = BoundaryConditions(m)
+    bcs.clamp("left", nodes=[0, 1])
+    bcs.force("push", nodes=[-1], force=(-1e9, 0.0, 0.0))
+    sim = Simulation(m, bcs, SolverSettings(dt=1e-3, dt_min=1e-3 / 16))
+    with pytest.raises(SimulationError) as info:
+        sim.run(0.01, progress=False)
+    assert sim.n_failures >= 4
+    good = info.value.last_good_state
+    assert good is not None and np.all(np.isfinite(good.q))

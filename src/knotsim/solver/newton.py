@@ -83,7 +83,35 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
     inexact Jacobian) takes the ordinary line search instead.
     ``NewtonResult.line_search_cuts`` counts the cuts of both line searches.
     """
+    try:
+        return _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, reuse_ratio,
+                       stall_iterations, safeguard_cuts)
+    except ArithmeticError as exc:  # ZeroDivisionError in a kernel, FloatingPointError, OverflowError
+        return NewtonResult(q0, False, 0, np.inf, np.inf, 0,
+                            f"numerical failure in a Newton trial ({type(exc).__name__}: {exc})")
+
+
+class _Trial:
+    """Residual evaluations of one solve that turn an arithmetic error of a trial point (a kernel's
+    division by zero, an overflow: a diverging iterate) into a non-finite residual norm, so that the
+    line search cuts the step; only the first evaluation, at ``q0``, lets the error through."""
+
+    def __init__(self, system):
+        self.system = system
+
+    def __call__(self, q, want_jacobian):
+        try:
+            r = self.system.residual(q, want_jacobian)
+        except ArithmeticError:
+            self.system.merit = np.nan
+            return np.full(q.shape[0], np.nan), np.inf
+        return r, self.system.residual_norm(r)
+
+
+def _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, reuse_ratio, stall_iterations,
+            safeguard_cuts) -> NewtonResult:
     norm2 = getattr(system, "residual_norm2", None) or (lambda r: float(np.linalg.norm(r)))
+    trial = _Trial(system)
     q = q0.copy()
     r = system.residual(q, True)
     rn = system.residual_norm(r)
@@ -108,8 +136,7 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
             if since_best >= stall_iterations and line_search and not safeguarded:
                 safeguarded = True
                 if reuse_jacobian:
-                    r = system.residual(q, True)  # the Jacobian at the current point
-                    rn = system.residual_norm(r)
+                    r, rn = trial(q, True)  # the Jacobian at the current point
         dq = system.solve(-r)
         if not np.all(np.isfinite(dq)):
             return NewtonResult(q, False, it, rn, step, cuts_total, "linear solve gave a non-finite step")
@@ -118,19 +145,19 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
             n0 = norm2(r)
             merit_q = system.merit
             q_try = q + dq
-            r_try = system.residual(q_try, True)
-            n_try = norm2(r_try)
+            r_try, rn_try = trial(q_try, True)
+            n_try = norm2(r_try) if np.isfinite(rn_try) else np.inf
             cuts = 0
             while n_try > (1.0 - 1e-4 * a) * n0 and cuts < safeguard_cuts:
                 a *= 0.5
                 cuts += 1
                 q_try = q + a * dq
-                r_try = system.residual(q_try, False)
-                n_try = norm2(r_try)
+                r_try, rn_try = trial(q_try, False)
+                n_try = norm2(r_try) if np.isfinite(rn_try) else np.inf
             cuts_total += cuts
             if n_try <= (1.0 - 1e-4 * a) * n0:
                 if cuts:
-                    r_try = system.residual(q_try, True)
+                    r_try, _ = trial(q_try, True)
                 step = system.step_norm(a * dq)
                 q, r, rn = q_try, r_try, system.residual_norm(r_try)
                 continue
@@ -141,8 +168,7 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
         merit0 = system.merit
         slope = float(np.dot(r, dq))
         q_try = q + dq
-        r_try = system.residual(q_try, not reuse_jacobian)
-        rn_try = system.residual_norm(r_try)
+        r_try, rn_try = trial(q_try, not reuse_jacobian)
         cuts = 0
 
         if line_search:
@@ -150,12 +176,10 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
                 a *= 0.5
                 cuts += 1
                 q_try = q + a * dq
-                r_try = system.residual(q_try, False)
-                rn_try = system.residual_norm(r_try)
+                r_try, rn_try = trial(q_try, False)
             cuts_total += cuts
         if (cuts and not reuse_jacobian) or (reuse_jacobian and (cuts or rn_try > reuse_ratio * rn)):
-            r_try = system.residual(q_try, True)  # fresh Jacobian at the accepted point
-            rn_try = system.residual_norm(r_try)
+            r_try, rn_try = trial(q_try, True)  # fresh Jacobian at the accepted point
         step = system.step_norm(a * dq)
         q, r, rn = q_try, r_try, rn_try
     return NewtonResult(q, False, max_iterations, rn, step, cuts_total,

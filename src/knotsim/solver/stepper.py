@@ -444,12 +444,17 @@ class Stepper:
         try:
             res = newton_solve(system, q0, self.settings.max_iterations, self.settings.line_search,
                                reuse_jacobian=self.settings.jacobian_reuse and not self.full_newton)
-        except LinearSolveError as exc:
-            raise StepFailure(str(exc)) from exc
+        except (LinearSolveError, ArithmeticError) as exc:  # ArithmeticError: ZeroDivision, overflow, FPE
+            raise StepFailure(f"{type(exc).__name__}: {exc}" if isinstance(exc, ArithmeticError) else str(exc)) from exc
         if not res.converged:
             raise StepFailure(f"{res.reason}{self._where(system, res.q)}")
+        if not np.all(np.isfinite(res.q)):
+            raise StepFailure("Newton returned non-finite positions")
         for inter in self.interactions:
-            reason = inter.check(res.q)
+            try:
+                reason = inter.check(res.q)
+            except ArithmeticError as exc:
+                raise StepFailure(f"{type(exc).__name__} in the {inter.name} check: {exc}") from exc
             if reason:
                 raise StepFailure(reason)
         q = res.q
