@@ -74,6 +74,17 @@ def test_tail_draw_in_and_status():
     assert M.knot_status("reef", "reef", slipped=True) == "slipped"
     assert M.knot_status("trefoil_right", "unknot") == "untied"
     assert M.knot_status("reef", "granny_left") == "changed knot type"
+    assert M.knot_status("reef", "reef", verdict="loose") == "loose"
+    assert M.knot_status("reef", "reef", verdict="undecided") == "undecided"
+    assert M.knot_status("reef", "unknot", verdict="loose") == "untied"  # topology first
+    with pytest.raises(ValueError):
+        M.knot_status("reef", "reef", verdict="fine")
+
+
+def test_ideal_ropelength_of_composite_knots_is_the_sum_of_factors():
+    assert M.ideal_ropelength("3_1") == 16.37
+    assert M.ideal_ropelength("3_1#3_1*") == pytest.approx(32.74)
+    assert M.ideal_ropelength("8_19") is None and M.ideal_ropelength(None) is None
     assert M.knot_status(None, "reef") == "unknown"
     assert M.normalized_force(2.0, 0.1, 0.01) == pytest.approx(2.0)
 

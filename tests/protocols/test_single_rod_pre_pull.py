@@ -39,8 +39,9 @@ def test_pre_pull_moves_the_ends_then_measures_the_window(tmp_path):
     t, tp, e2e = (log[c].to_numpy() for c in ("time", "t_pull", "end_to_end"))
     np.testing.assert_allclose(tp, t - 2.0)
     e0 = e2e[0] - 2 * 0.025 * t[0]
-    # the ends separate at 2 x 25 mm/s for 2 s, then at 2 x 20 mm/s (the quick pull speed)
-    expect = e0 + np.where(t <= 2.0, 0.05 * t, 0.1 + 0.04 * (t - 2.0))
+    # the ends separate at 2 x 25 mm/s for 2 s, then at 2 x 10 mm/s (the published pull speed, which
+    # --quick keeps)
+    expect = e0 + np.where(t <= 2.0, 0.05 * t, 0.1 + 0.02 * (t - 2.0))
     np.testing.assert_allclose(e2e, expect, atol=1e-9)
     assert m["end_to_end_at_window_start"] == pytest.approx(e0 + 0.1, abs=1e-3)
     assert math.isfinite(m["F_norm_mean"]) and m["mean_window"] == 0.5

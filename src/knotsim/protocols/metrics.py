@@ -283,13 +283,45 @@ def tail_draw_in(log: pd.DataFrame, column: str, kind: str = "decrease") -> floa
     return float(y[0] - y[-1]) if kind == "decrease" else float(y[-1] - y[0])
 
 
-def knot_status(start_type: str | None, end_type: str | None, slipped: bool = False) -> str:
-    """``"held"``, ``"slipped"`` (same knot but the force dropped), ``"untied"`` (ends as an unknot
-    or unlink), ``"changed knot type"`` or ``"unknown"`` (a topology check failed)."""
+#: Outcomes of a strength test, from the protocol's metrics (see :func:`knot_status`).
+VERDICTS = ("slipped", "loose", "undecided")
+
+#: Ropelength (rope length / diameter) of the ideal tight knots (Pieranski 1998; Baranska et al.
+#: 2004): trefoil 16.37, figure-eight 21.04, 5_1 23.55, 5_2 24.68. A composite knot is taken as the
+#: sum of its factors (an upper bound).
+IDEAL_ROPELENGTH = {"3_1": 16.37, "4_1": 21.04, "5_1": 23.55, "5_2": 24.68}
+
+
+def ideal_ropelength(rolfsen: str | None) -> float | None:
+    """Ideal ropelength (diameters) of a knot by its Rolfsen name (``"3_1"``, ``"3_1#3_1*"``), or
+    ``None`` for a knot outside :data:`IDEAL_ROPELENGTH`."""
+    if not rolfsen:
+        return None
+    total = 0.0
+    for factor in str(rolfsen).split("#"):
+        v = IDEAL_ROPELENGTH.get(factor.rstrip("*"))
+        if v is None:
+            return None
+        total += v
+    return total
+
+
+def knot_status(start_type: str | None, end_type: str | None, slipped: bool = False,
+                verdict: str | None = None) -> str:
+    """Outcome of a loading run.
+
+    ``"untied"`` (ends as an unknot or unlink), ``"changed knot type"`` or ``"unknown"`` (a topology
+    check failed) from the topology; else the protocol's ``verdict`` (``"slipped"``: the force
+    dropped or the tails ran; ``"loose"``: the knot never tightened; ``"undecided"``: the run was
+    too short to tell) or ``"slipped"`` when ``slipped``; else ``"held"``."""
     if start_type is None or end_type is None:
         return "unknown"
     if end_type != start_type:
         if end_type in ("unknot", "unlink") and start_type not in ("unknot", "unlink"):
             return "untied"
         return "changed knot type"
+    if verdict is not None:
+        if verdict not in VERDICTS:
+            raise ValueError(f"unknown verdict {verdict!r}; expected one of {VERDICTS}")
+        return verdict
     return "slipped" if slipped else "held"

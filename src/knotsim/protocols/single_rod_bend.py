@@ -41,7 +41,7 @@ import numpy as np
 
 from knotsim.errors import ConfigError
 from knotsim.protocols.base import LoadingProtocol, RunContext, stage_duration, unit
-from knotsim.protocols.metrics import moving_average, slip_onset, window_mean, window_peak
+from knotsim.protocols.metrics import ideal_ropelength, moving_average, slip_onset, window_mean, window_peak
 
 #: Times (s) at which F h^2/EI was read off the published figure.
 REPORT_TIMES = (2.5, 5.0, 7.5, 10.0, 12.5)
@@ -75,11 +75,12 @@ class SingleRodBend(LoadingProtocol):
         "pre_pull": 0.0,        # m, end-to-end separation added before the measured pull (0: none)
         "pre_pull_speed": None,  # m/s per end during the pre-tightening (None: pull_speed)
         "end_twist": "clamped",  # "clamped": the pulled end edges keep their angle; "free": they may twist
+        "transient": 1.0,       # s of the pull left out of the peak (start-up ringing of the abrupt start)
+        "loose_factor": 3.0,    # loose: rope in the knot at the end > loose_factor x its ideal ropelength
         "output_interval": 0.1,
     }
     fixed_geometry = ("n_nodes", "radius", "length")
-    quick = {"n_nodes": 101, "dt": 5e-3, "duration": 2.0, "mean_window": 2.0, "pull_speed": 0.02,
-             "output_interval": 0.5}
+    quick = {"n_nodes": 101, "dt": 5e-3, "duration": 2.0, "mean_window": 2.0, "output_interval": 0.5}
 
     def setup(self, ctx: RunContext) -> None:
         x = ctx.geometry.ropes[0]
@@ -137,9 +138,12 @@ class SingleRodBend(LoadingProtocol):
         if not len(log):
             return {"pre_pull_time": t_pre}
         t = np.asarray(log["time"], float)
+        transient = float(ctx.params["transient"])
+        if not transient >= 0:
+            raise ConfigError("transient", f"must be a duration >= 0 in s, got {transient!r}")
         out = {
             "F_norm_mean": window_mean(log, "F_norm", 0.0, w),
-            "F_norm_peak": window_peak(log, "F_norm", 0.0, w),
+            "F_norm_peak": window_peak(log, "F_norm", transient, w) if t[-1] > transient else None,
             "mean_window": w,
             "F_norm_final": window_mean(log, "F_norm", float(log["time"].iloc[-1]) - 0.25),  # last 0.25 s
             "pre_pull_time": t_pre,
@@ -154,8 +158,30 @@ class SingleRodBend(LoadingProtocol):
         onset = slip_onset(log, "F_norm", mode="drop", drop_fraction=0.3,
                            min_force=0.5 * max(fmax, 1e-12), smooth=0.5, t0=t_skip)
         out["slip_onset"] = onset
+        # tightness: rope still in the knot (L - end-to-end) against the ideal tight knot's ropelength
+        in_knot = float(ctx.length - log["end_to_end"].iloc[-1])
+        topo = ctx.data.get("topology_end") or {}
+        ideal = ideal_ropelength(topo.get("rolfsen"))
+        out["rope_in_knot_final"] = in_knot
+        out["ideal_rope_in_knot"] = None if ideal is None else ideal * 2.0 * ctx.radius
+        factor = float(ctx.params["loose_factor"])
+        out["tightened"] = None if ideal is None else bool(in_knot <= factor * ideal * 2.0 * ctx.radius)
+        # the slip rule needs 1 s of pull after its start-up skip to see a drop
+        out["decidable"] = bool(t[-1] >= t_skip + 1.0)
         return out
 
     def slipped(self, ctx: RunContext, metrics: dict) -> bool:
         return metrics.get("slip_onset") is not None
+
+    def verdict(self, ctx: RunContext, metrics: dict) -> str | None:
+        """``slipped`` (a force drop), else ``loose`` when the rope in the knot at the end exceeds
+        ``loose_factor`` times the ideal tight knot's (the knot never tightened), else ``undecided``
+        when the pull was too short for the slip rule (shorter than its skip + 1 s), else held."""
+        if self.slipped(ctx, metrics):
+            return "slipped"
+        if metrics.get("tightened") is False:
+            return "loose"
+        if not metrics.get("decidable", False):
+            return "undecided"
+        return None
 

@@ -375,6 +375,8 @@ class TwoRopeBend(LoadingProtocol):
         if not t_skip >= 0:
             raise ConfigError("transient", f"must be a duration >= 0 in s, got {t_skip!r}")
         after = t >= t_skip
+        need = float(p["slip_hold"]) + 2.0 if p["mode"] == "displacement" else 0.5
+        out["decidable"] = bool(t[-1] - t_skip >= need)
         f_avg = moving_average(log, "F_norm", 0.5)
         if p["mode"] == "displacement":
             fmax = float(np.max(f_avg[after])) if after.any() else 0.0
@@ -407,4 +409,14 @@ class TwoRopeBend(LoadingProtocol):
 
     def slipped(self, ctx: RunContext, metrics: dict) -> bool:
         return metrics.get("slip_onset") is not None
+
+    def verdict(self, ctx: RunContext, metrics: dict) -> str | None:
+        """``slipped``, else ``undecided`` when the pull after the transient is shorter than the
+        evidence the slip rule needs (``slip_hold`` plus its 2 s smoothing in displacement control,
+        0.5 s in force control), else held."""
+        if self.slipped(ctx, metrics):
+            return "slipped"
+        if not metrics.get("decidable", False):
+            return "undecided"
+        return None
 
