@@ -167,3 +167,41 @@ def test_empty_trajectory(tmp_path):
     assert tr.n_frames == 0 and tr.positions.shape == (0, 9, 3)
     with pytest.raises(ConfigError):
         tr.frame_at_time(0.0)
+
+
+def test_every_dataset_has_units_and_derived_fields_round_trip(tmp_path):
+    from knotsim.io.trajectory import DATASETS
+
+    path = tmp_path / "trajectory.h5"
+    times, pos, ang = _frames(3)
+    rng = np.random.default_rng(1)
+    extra = [{"velocities": rng.normal(size=(9, 3)), "reference_directors": rng.normal(size=(8, 3)),
+              "reference_twist": rng.normal(size=3), "edge_strain": rng.normal(size=8),
+              "edge_tension": rng.normal(size=8), "contact_force": rng.random(9),
+              "friction_force": rng.random(9)} for _ in range(3)]
+    # 3 bending stencils: the open rope has 3 interior nodes (the ring's 4 are left out here)
+    with TrajectoryWriter(path, **LAYOUT, n_bend=3, rest_edge_length=np.full(8, 0.1),
+                          fields=["edge_strain", "edge_tension", "contact_force", "friction_force"]) as w:
+        for k in range(3):
+            w.append(times[k], pos[k], ang[k], extra[k])
+    with h5py.File(path, "r") as f:
+        names = set(f)
+        assert names == set(DATASETS)  # every known dataset is written here, and none other
+        for key in f:
+            assert f[key].attrs["units"] == DATASETS[key][0] and f[key].attrs["description"]
+    assert DATASETS["positions"][0] == "m" and DATASETS["velocities"][0] == "m/s"
+    for lazy in (False, True):
+        with read_trajectory(path, frames=[0, 2], lazy=lazy) as tr:
+            assert tr.units["edge_tension"] == "N" and tr.units["time"] == "s"
+            np.testing.assert_array_equal(tr.fields["edge_tension"][1], extra[2]["edge_tension"])
+            np.testing.assert_array_equal(tr.fields["contact_force"][0], extra[0]["contact_force"])
+            np.testing.assert_array_equal(tr.state["reference_twist"][1], extra[2]["reference_twist"])
+            np.testing.assert_array_equal(tr.state["rest_edge_length"], np.full(8, 0.1))
+            assert np.asarray(tr.fields["edge_strain"]).shape == (2, 8)
+    with pytest.raises(ConfigError, match="edge_stress"):
+        TrajectoryWriter(tmp_path / "x.h5", **LAYOUT, fields=["edge_stress"])
+    with pytest.raises(ConfigError, match="rest_edge_length"):
+        TrajectoryWriter(tmp_path / "y.h5", **LAYOUT, rest_edge_length=np.ones(5))
+    with TrajectoryWriter(tmp_path / "z.h5", **LAYOUT, fields=["edge_strain"]) as w, \
+            pytest.raises(ConfigError, match="edge_strain"):
+        w.append(0.0, pos[0], ang[0])

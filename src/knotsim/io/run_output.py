@@ -20,6 +20,7 @@ from pathlib import Path
 import knotsim
 from knotsim._util.jsonio import write_json
 from knotsim._util.toml import write_toml
+from knotsim.io.frame_fields import frame_field_names, frame_fields
 from knotsim.io.trajectory import TrajectoryWriter
 
 
@@ -36,7 +37,8 @@ class RunOutput:
         self.config = config if config is not None else getattr(sim, "config", None)
         self.writer = TrajectoryWriter(self.dir / "trajectory.h5", m.rod_node_start, m.rod_edge_start, m.rod_closed,
                                        m.rod_radius, m.rod_names, flush_every=16, n_bend=int(m.n_bend),
-                                       rest_edge_length=m.rest_length)
+                                       rest_edge_length=m.rest_length,
+                                       fields=frame_field_names(sim.stepper.interactions))
         self._next = None
         self._last_time = None
         self._rows_start = len(sim.rows)
@@ -48,7 +50,8 @@ class RunOutput:
         q = st.q
         self.writer.append(st.time, self.model.node_positions(q), self.model.edge_angles(q),
                            {"velocities": self.model.node_positions(st.v), "reference_directors": st.d1,
-                            "reference_twist": st.ref_twist})
+                            "reference_twist": st.ref_twist,
+                            **frame_fields(self.model, q, self.sim.stepper.interactions)})
         self._last_time = sim.state.time
         if self.interval:
             self._next = sim.state.time + self.interval

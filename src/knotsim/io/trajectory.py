@@ -1,10 +1,17 @@
 """Trajectory files (``trajectory.h5``): writing frames as a run goes, and reading them back.
 
-File layout (see ``docs/architecture.md``, section "Trajectory file"):
+File layout (see ``docs/architecture.md``, section "Trajectory file"); every dataset carries the
+attributes ``units`` (UDUNITS-style text, ``"1"`` for dimensionless numbers and indices) and
+``description`` (:data:`DATASETS`):
 
 - ``time``: ``(T,)`` float64, s.
 - ``positions``: ``(T, n_nodes_total, 3)`` float64, m, chunked along T.
 - ``edge_angles``: ``(T, n_edges_total)`` float64, rad.
+- optional physical state per frame (a run can continue from any frame): ``velocities``
+  ``(T, n_nodes, 3)`` m/s, ``reference_directors`` ``(T, n_edges, 3)``, ``reference_twist``
+  ``(T, n_bend)`` rad; and the static ``rest_edge_length`` ``(n_edges,)`` m;
+- optional derived output per frame (:data:`FRAME_FIELDS`): ``edge_strain`` and ``edge_tension``
+  ``(T, n_edges)`` (1 and N), ``contact_force`` and ``friction_force`` ``(T, n_nodes)`` N;
 - ``rod_node_start``: ``(n_rods+1,)`` int64; rod ``r`` owns global nodes
   ``rod_node_start[r]:rod_node_start[r+1]``.
 - ``rod_edge_start``: ``(n_rods+1,)`` int64, likewise for edges.
@@ -14,8 +21,8 @@ File layout (see ``docs/architecture.md``, section "Trajectory file"):
 
 The writer appends one frame at a time to resizable, chunked datasets and flushes the file after
 every ``flush_every`` frames, so that a run that is killed leaves a file readable up to its last
-flushed frame. Within a frame ``positions`` and ``edge_angles`` are written before ``time``; the
-reader keeps only frames whose three datasets all exist and whose time is finite.
+flushed frame. Within a frame every other dataset is written before ``time``; the reader keeps
+only frames whose datasets all exist and whose time is finite.
 """
 
 from __future__ import annotations
@@ -31,8 +38,41 @@ import h5py
 import numpy as np
 
 from knotsim.errors import ConfigError
+from knotsim.io._frames import _LazyFrames, _select_frames, _validate_layout
 
-__all__ = ["FORMAT_NAME", "Trajectory", "TrajectoryWriter", "read_trajectory"]
+__all__ = ["DATASETS", "FORMAT_NAME", "FRAME_FIELDS", "Trajectory", "TrajectoryWriter", "read_trajectory"]
+
+#: Units and meaning of every dataset of a trajectory file (stored as its ``units`` and
+#: ``description`` attributes). ``"1"``: dimensionless (or an index).
+DATASETS: dict[str, tuple[str, str]] = {
+    "time": ("s", "simulation time of each frame"),
+    "positions": ("m", "node positions (frame, global node, xyz)"),
+    "edge_angles": ("rad", "edge angle theta: material frame rotated from the reference frame about the tangent"),
+    "velocities": ("m/s", "node velocities (frame, global node, xyz)"),
+    "reference_directors": ("1", "unit first reference director d1 of each edge (frame, global edge, xyz)"),
+    "reference_twist": ("rad", "reference twist of each interior node (frame, bending stencil, in rod order)"),
+    "rest_edge_length": ("m", "rest length of each edge"),
+    "edge_strain": ("1", "axial strain |e|/l0 - 1 of each edge"),
+    "edge_tension": ("N", "axial force EA * strain of each edge"),
+    "contact_force": ("N", "magnitude of the net contact (normal) force on each node at the step that "
+                      "ended at this frame; NaN in a frame written before the run's first step"),
+    "friction_force": ("N", "magnitude of the net friction force on each node, as contact_force"),
+    "rod_node_start": ("1", "global node number where each rod starts (last entry: total)"),
+    "rod_edge_start": ("1", "global edge number where each rod starts (last entry: total)"),
+    "rod_closed": ("1", "whether each rod is closed (a ring)"),
+    "rod_radius": ("m", "radius of each rod"),
+}
+#: Optional derived per-frame datasets and what they are given per: ``"edge"`` or ``"node"``.
+FRAME_FIELDS: dict[str, str] = {"edge_strain": "edge", "edge_tension": "edge", "contact_force": "node",
+                                "friction_force": "node"}
+
+
+def _label(ds: h5py.Dataset, name: str) -> h5py.Dataset:
+    """Attach the ``units`` and ``description`` attributes of :data:`DATASETS` to ``ds``."""
+    units, text = DATASETS[name]
+    ds.attrs["units"] = units
+    ds.attrs["description"] = text
+    return ds
 
 FORMAT_NAME = "knotsim-trajectory"
 _REQUIRED = (
@@ -44,47 +84,6 @@ _REQUIRED = (
     "rod_closed",
     "rod_radius",
 )
-
-
-def _validate_layout(
-    rod_node_start: Any, rod_edge_start: Any, rod_closed: Any, rod_radius: Any, rod_names: Any
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
-    """Check and normalise the rod layout arrays; raise :class:`ConfigError` when inconsistent."""
-    node_start = np.asarray(rod_node_start, dtype=np.int64).reshape(-1)
-    edge_start = np.asarray(rod_edge_start, dtype=np.int64).reshape(-1)
-    closed = np.asarray(rod_closed, dtype=bool).reshape(-1)
-    radius = np.asarray(rod_radius, dtype=np.float64).reshape(-1)
-    n_rods = node_start.size - 1
-    if n_rods < 1:
-        raise ConfigError("rod_node_start", f"needs n_rods+1 >= 2 entries, got {node_start.size}")
-    if node_start[0] != 0 or np.any(np.diff(node_start) < 2):
-        raise ConfigError(
-            "rod_node_start",
-            f"must start at 0 and increase by at least 2 nodes per rod, got {node_start.tolist()}",
-        )
-    if edge_start.shape != node_start.shape or edge_start[0] != 0:
-        raise ConfigError(
-            "rod_edge_start", f"must have {n_rods + 1} entries starting at 0, got {edge_start.tolist()}"
-        )
-    if closed.shape != (n_rods,):
-        raise ConfigError("rod_closed", f"must have {n_rods} entries, got {closed.size}")
-    if radius.shape != (n_rods,) or not np.all(np.isfinite(radius)) or np.any(radius <= 0):
-        raise ConfigError("rod_radius", f"must be {n_rods} positive finite radii (m), got {radius.tolist()}")
-    n_nodes = np.diff(node_start)
-    expected_edges = np.where(closed, n_nodes, n_nodes - 1)
-    if not np.array_equal(np.diff(edge_start), expected_edges):
-        raise ConfigError(
-            "rod_edge_start",
-            f"edge counts {np.diff(edge_start).tolist()} do not match node counts {n_nodes.tolist()} "
-            f"(an open rod with N nodes has N-1 edges, a closed one N)",
-        )
-    if rod_names is None:
-        names = [f"rod{r}" for r in range(n_rods)]
-    else:
-        names = [str(s) for s in rod_names]
-        if len(names) != n_rods:
-            raise ConfigError("rod_names", f"must have {n_rods} names, got {len(names)}")
-    return node_start, edge_start, closed, radius, names
 
 
 class TrajectoryWriter:
@@ -127,6 +126,10 @@ class TrajectoryWriter:
     rest_edge_length:
         ``(n_edges,)`` m, the rods' rest edge lengths (stored once), so that a run continued from a
         frame keeps the rope's rest shape.
+    fields:
+        Names of derived per-frame datasets to store (keys of :data:`FRAME_FIELDS`: ``edge_strain``,
+        ``edge_tension`` ``(n_edges,)``, ``contact_force``, ``friction_force`` ``(n_nodes,)``); each
+        appended frame then passes them in ``state``.
     """
 
     def __init__(
@@ -144,6 +147,7 @@ class TrajectoryWriter:
         attrs: dict[str, Any] | None = None,
         n_bend: int | None = None,
         rest_edge_length: np.ndarray | None = None,
+        fields: Sequence[str] = (),
     ):
         node_start, edge_start, closed, radius, names = _validate_layout(
             rod_node_start, rod_edge_start, rod_closed, rod_radius, rod_names
@@ -156,6 +160,9 @@ class TrajectoryWriter:
         self.n_nodes = int(node_start[-1])
         self.n_edges = int(edge_start[-1])
         self.flush_every = int(flush_every)
+        unknown = [k for k in fields if k not in FRAME_FIELDS]
+        if unknown:
+            raise ConfigError("fields", f"unknown per-frame fields {unknown}; known: {sorted(FRAME_FIELDS)}")
         self._n_frames = 0
         self._unflushed = 0
         self._last_time = -np.inf
@@ -171,10 +178,9 @@ class TrajectoryWriter:
             f.attrs["rod_names"] = np.array(names, dtype=h5py.string_dtype())
             for key, value in (attrs or {}).items():
                 f.attrs[key] = value
-            f.create_dataset("rod_node_start", data=node_start)
-            f.create_dataset("rod_edge_start", data=edge_start)
-            f.create_dataset("rod_closed", data=closed)
-            f.create_dataset("rod_radius", data=radius)
+            for key, data in (("rod_node_start", node_start), ("rod_edge_start", edge_start),
+                              ("rod_closed", closed), ("rod_radius", radius)):
+                _label(f.create_dataset(key, data=data), key)
             self._positions = f.create_dataset(
                 "positions",
                 shape=(0, self.n_nodes, 3),
@@ -193,15 +199,23 @@ class TrajectoryWriter:
                 fillvalue=np.nan,
                 compression=compression,
             )
+            _label(self._positions, "positions")
+            _label(self._edge_angles, "edge_angles")
             if rest_edge_length is not None:
-                f.create_dataset("rest_edge_length", data=np.asarray(rest_edge_length, dtype=np.float64))
-            self._state_ds = {}
+                rest = np.asarray(rest_edge_length, dtype=np.float64).reshape(-1)
+                if rest.shape != (self.n_edges,):
+                    raise ConfigError("rest_edge_length", f"expected shape ({self.n_edges},), got {rest.shape}")
+                _label(f.create_dataset("rest_edge_length", data=rest), "rest_edge_length")
+            per_frame: list[tuple[str, tuple[int, ...]]] = []
             if n_bend is not None:
-                for key, shape in (("velocities", (self.n_nodes, 3)), ("reference_directors", (self.n_edges, 3)),
-                                   ("reference_twist", (int(n_bend),))):
-                    self._state_ds[key] = f.create_dataset(
-                        key, shape=(0, *shape), maxshape=(None, *shape), chunks=(cf, *shape),
-                        dtype=np.float64, fillvalue=np.nan, compression=compression)
+                per_frame += [("velocities", (self.n_nodes, 3)), ("reference_directors", (self.n_edges, 3)),
+                              ("reference_twist", (int(n_bend),))]
+            per_frame += [(k, (self.n_edges if FRAME_FIELDS[k] == "edge" else self.n_nodes,)) for k in fields]
+            self._state_ds = {}
+            for key, shape in per_frame:
+                self._state_ds[key] = _label(f.create_dataset(
+                    key, shape=(0, *shape), maxshape=(None, *shape), chunks=(cf, *shape),
+                    dtype=np.float64, fillvalue=np.nan, compression=compression), key)
             self._time = f.create_dataset(
                 "time",
                 shape=(0,),
@@ -210,6 +224,7 @@ class TrajectoryWriter:
                 dtype=np.float64,
                 fillvalue=np.nan,
             )
+            _label(self._time, "time")
             f.flush()
         except BaseException:
             f.close()
@@ -247,7 +262,8 @@ class TrajectoryWriter:
             ``(n_edges_total,)`` edge twist angles (rad).
         state:
             With ``n_bend`` given at creation: ``velocities``, ``reference_directors`` and
-            ``reference_twist`` of the frame (shapes in the class docstring).
+            ``reference_twist`` of the frame (shapes in the class docstring); and every name in
+            ``fields``.
         """
         if self._file is None:
             raise ConfigError("TrajectoryWriter", f"append() after close() on {self.path}")
@@ -294,53 +310,6 @@ class TrajectoryWriter:
             self._file = None
 
 
-class _LazyFrames:
-    """Read-only view of a frame-major HDF5 dataset restricted to selected frames.
-
-    Indexing with ``[i]``, ``[i, ...]``, slices or integer arrays on the first axis reads only
-    the requested frames from disk; ``np.asarray(view)`` reads all selected frames.
-    """
-
-    def __init__(self, dataset: h5py.Dataset, frame_indices: np.ndarray):
-        self._ds = dataset
-        self._idx = frame_indices
-
-    @property
-    def shape(self) -> tuple[int, ...]:
-        return (self._idx.size, *self._ds.shape[1:])
-
-    @property
-    def dtype(self) -> np.dtype:
-        return self._ds.dtype
-
-    @property
-    def ndim(self) -> int:
-        return self._ds.ndim
-
-    def __len__(self) -> int:
-        return int(self._idx.size)
-
-    def __getitem__(self, key: Any) -> np.ndarray:
-        first, rest = (key[0], key[1:]) if isinstance(key, tuple) else (key, ())
-        sel = self._idx[first]
-        if np.ndim(sel) == 0:
-            return self._ds[(int(sel), *rest)]
-        sel = np.asarray(sel, dtype=np.int64)
-        if sel.size == 0:
-            return np.empty((0, *self._ds.shape[1:]), dtype=self._ds.dtype)[(slice(None), *rest)]
-        # h5py fancy indexing needs increasing, unique indices
-        uniq, inverse = np.unique(sel, return_inverse=True)
-        if uniq[-1] - uniq[0] + 1 == uniq.size:  # contiguous: one hyperslab read
-            data = self._ds[int(uniq[0]) : int(uniq[-1]) + 1]
-        else:
-            data = self._ds[uniq.tolist()]
-        return data[inverse][(slice(None), *rest)]
-
-    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
-        out = self[:]
-        return out if dtype is None else out.astype(dtype)
-
-
 @dataclass
 class Trajectory:
     """A trajectory read from ``trajectory.h5``.
@@ -384,7 +353,13 @@ class Trajectory:
     path: Path | None = None
     #: ``velocities``, ``reference_directors``, ``reference_twist`` of the loaded frames and the
     #: static ``rest_edge_length`` when the file stores them (see :class:`TrajectoryWriter`), else empty.
-    state: dict[str, np.ndarray] = field(default_factory=dict)
+    #: Lazy views (as ``positions``) for the per-frame arrays when loaded with ``lazy=True``.
+    state: dict[str, Any] = field(default_factory=dict)
+    #: Derived per-frame arrays the file stores (:data:`FRAME_FIELDS`: ``edge_strain``,
+    #: ``edge_tension`` ``(T, n_edges)``, ``contact_force``, ``friction_force`` ``(T, n_nodes)``).
+    fields: dict[str, Any] = field(default_factory=dict)
+    #: ``units`` attribute of every dataset in the file (e.g. ``units["edge_tension"] == "N"``).
+    units: dict[str, str] = field(default_factory=dict)
     _file: h5py.File | None = field(default=None, repr=False)
 
     # ------------------------------------------------------------------ sizes
@@ -476,24 +451,6 @@ class Trajectory:
         self.close()
 
 
-def _select_frames(frames: Any, n: int) -> np.ndarray:
-    """File frame indices selected by ``frames`` (None, int, slice or sequence of ints)."""
-    if frames is None:
-        return np.arange(n, dtype=np.int64)
-    if isinstance(frames, slice):
-        return np.arange(n, dtype=np.int64)[frames]
-    if isinstance(frames, str):
-        raise ConfigError("frames", f"must be None, an int, a slice or a sequence of ints, got {frames!r}")
-    sel = np.asarray(frames)
-    if sel.dtype == bool or (sel.size and not np.issubdtype(sel.dtype, np.integer)):
-        raise ConfigError("frames", f"must be None, an int, a slice or a sequence of ints, got {frames!r}")
-    sel = sel.astype(np.int64).reshape(-1)
-    bad = (sel < -n) | (sel >= n)
-    if np.any(bad):
-        raise ConfigError("frames", f"indices {sel[bad].tolist()} out of range for {n} frames in the file")
-    return sel % n if n else sel
-
-
 _STATE_KEYS = ("velocities", "reference_directors", "reference_twist")
 
 
@@ -508,8 +465,8 @@ def read_trajectory(path: str | os.PathLike, frames: Any = None, *, lazy: bool =
         Which frames to load: ``None`` (all), an int (negative counts from the end), a slice, or a
         sequence of ints. Indices refer to frames in the file.
     lazy:
-        If true, ``positions`` and ``edge_angles`` are not read now but on indexing, and the file
-        stays open until :meth:`Trajectory.close` (or the end of a ``with`` block).
+        If true, ``positions``, ``edge_angles`` and the per-frame ``state`` and ``fields`` arrays
+        are not read now but on indexing, and the file stays open until :meth:`Trajectory.close` (or the end of a ``with`` block).
 
     Raises
     ------
@@ -557,7 +514,11 @@ def read_trajectory(path: str | os.PathLike, frames: Any = None, *, lazy: bool =
         attrs = {
             k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items() if k != "rod_names"
         }
+        units = {k: (v.decode() if isinstance(v, bytes) else str(v))
+                 for k in f for v in [f[k].attrs.get("units")] if v is not None}
+        per_frame = [k for k in (*_STATE_KEYS, *FRAME_FIELDS) if k in f and f[k].shape[0] >= n]
         common = dict(
+            units=units,
             time=all_time[sel],
             rod_node_start=node_start,
             rod_edge_start=edge_start,
@@ -568,18 +529,18 @@ def read_trajectory(path: str | os.PathLike, frames: Any = None, *, lazy: bool =
             attrs=attrs,
             path=path,
         )
-        if lazy:
-            return Trajectory(
-                positions=_LazyFrames(pos_ds, sel), edge_angles=_LazyFrames(ang_ds, sel), _file=f, **common
-            )
-        positions = _LazyFrames(pos_ds, sel)[:]
-        edge_angles = _LazyFrames(ang_ds, sel)[:]
-        state = {key: _LazyFrames(f[key], sel)[:] for key in _STATE_KEYS
-                 if key in f and f[key].shape[0] >= n}
+        views = {key: _LazyFrames(f[key], sel) for key in ("positions", "edge_angles", *per_frame)}
+        if not lazy:
+            views = {key: view[:] for key, view in views.items()}
+        state = {key: views[key] for key in _STATE_KEYS if key in views}
         if "rest_edge_length" in f:
             state["rest_edge_length"] = np.asarray(f["rest_edge_length"][()], dtype=np.float64)
+        out = Trajectory(positions=views["positions"], edge_angles=views["edge_angles"], state=state,
+                         fields={key: views[key] for key in FRAME_FIELDS if key in views},
+                         _file=f if lazy else None, **common)
     except BaseException:
         f.close()
         raise
-    f.close()
-    return Trajectory(positions=positions, edge_angles=edge_angles, state=state, **common)
+    if not lazy:
+        f.close()
+    return out

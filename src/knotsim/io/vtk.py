@@ -7,17 +7,21 @@ with this point data, one value per node:
 ``radius`` (m)
     The rod's radius.
 ``twist`` (rad/m)
-    Rate of change of the edge angle per unit length, averaged to nodes: at node ``i`` between
-    edges ``i-1`` and ``i``, ``(theta_i - theta_{i-1}) / l_i`` with the Voronoi length
-    ``l_i = (|e_{i-1}| + |e_i|) / 2``. The edge angles are measured from each edge's reference
-    frame, so this equals the material twist density only where the reference frames carry no
-    reference twist (e.g. space-parallel transported frames). Zero at the two end nodes of an
-    open rod (they lie on a single edge).
+    Material twist per unit length at each interior node, as in the twisting energy
+    (:mod:`knotsim.energies.twisting`): at node ``i`` between edges ``i-1`` and ``i``,
+    ``m_i / l_i`` with the integrated twist ``m_i = theta_i - theta_{i-1} + reference_twist_i``
+    (rad) and the rest Voronoi length ``l_i = (l0_{i-1} + l0_i) / 2``, so that the twisting energy
+    of a rod without natural twist is ``sum_i GJ l_i twist_i^2 / 2``. Uses the trajectory's stored
+    ``reference_twist`` and ``rest_edge_length``; a file without them (written before they were
+    stored) gives the edge-angle difference alone over the current Voronoi length, which leaves out
+    the reference twist. Zero at the two end nodes of an open rod (they lie on a single edge).
 ``bending_strain`` (dimensionless)
     Curvature times radius, ``kappa_i * r`` with the discrete curvature
     ``kappa_i = 2 |t_{i-1} x t_i| / (1 + t_{i-1} . t_i) / l_i`` (``t`` unit edge tangents, ``l_i``
     the Voronoi length above): the peak axial strain of the rod's surface if it were a beam.
     Zero at the two end nodes of an open rod.
+``contact_force`` (N)
+    Magnitude of the net contact force on the node (only when the trajectory stores it).
 ``rod_id``
     Index of the rod (Int32); also stored as cell data of each polyline.
 
@@ -61,10 +65,14 @@ def _edges(points: np.ndarray, closed: bool) -> np.ndarray:
 def voronoi_lengths(points: np.ndarray, closed: bool) -> np.ndarray:
     """``(N,)`` Voronoi length of each node (m): half the summed length of its one or two edges."""
     p = np.asarray(points, dtype=np.float64)
-    length = np.linalg.norm(_edges(p, closed), axis=1)
+    return _voronoi_from_lengths(np.linalg.norm(_edges(p, closed), axis=1), closed)
+
+
+def _voronoi_from_lengths(length: np.ndarray, closed: bool) -> np.ndarray:
+    """``(N,)`` Voronoi lengths (m) of the nodes of a rod with edge lengths ``length (E,)``."""
     if closed:
         return 0.5 * (length + np.roll(length, 1))
-    out = np.empty(p.shape[0])
+    out = np.empty(length.size + 1)
     out[0] = 0.5 * length[0]
     out[-1] = 0.5 * length[-1]
     out[1:-1] = 0.5 * (length[:-1] + length[1:])
@@ -100,22 +108,48 @@ def node_bending_strain(points: np.ndarray, radius: float, closed: bool) -> np.n
     return node_curvature(points, closed) * float(radius)
 
 
-def node_twist(points: np.ndarray, edge_angles: np.ndarray, closed: bool) -> np.ndarray:
-    """``(N,)`` twist (rad/m) at each node: ``(theta_i - theta_{i-1}) / l_i``; 0 at open ends.
+def node_twist(points: np.ndarray, edge_angles: np.ndarray, closed: bool,
+               reference_twist: np.ndarray | None = None, rest_edge_length: np.ndarray | None = None) -> np.ndarray:
+    """``(N,)`` twist (rad/m) at each node of one rod: ``m_i / l_i``; 0 at open ends.
 
-    ``edge_angles`` is ``(E,)`` (rad), edge ``i`` joining nodes ``i`` and ``i+1`` (mod N if closed).
+    ``m_i = theta_i - theta_{i-1} + reference_twist_i`` is the integrated twist of the twisting
+    energy; ``l_i`` the node's Voronoi length, from ``rest_edge_length`` when given (as in the
+    energy), else from the current ``points``.
+
+    Parameters
+    ----------
+    points:
+        ``(N, 3)`` node positions (m).
+    edge_angles:
+        ``(E,)`` edge angles (rad), edge ``i`` joining nodes ``i`` and ``i+1`` (mod N if closed).
+    reference_twist:
+        ``(n_interior,)`` rad, one per interior node in the model's stencil order (open rod: nodes
+        ``1..N-2``; closed rod: nodes ``0..N-1``); ``None`` leaves it out (a frame-dependent number).
+    rest_edge_length:
+        ``(E,)`` rest edge lengths (m), or ``None``.
     """
     p = np.asarray(points, dtype=np.float64)
     th = np.asarray(edge_angles, dtype=np.float64).reshape(-1)
     n = p.shape[0]
-    if th.size != (n if closed else n - 1):
+    n_edges = n if closed else n - 1
+    if th.size != n_edges:
         raise ConfigError("edge_angles", f"{th.size} angles for {n} nodes (closed={closed})")
+    n_int = n if closed else max(n - 2, 0)
+    ref = np.zeros(n_int) if reference_twist is None else np.asarray(reference_twist, np.float64).reshape(-1)
+    if ref.size != n_int:
+        raise ConfigError("reference_twist", f"{ref.size} values for {n_int} interior nodes (closed={closed})")
+    if rest_edge_length is None:
+        lv = voronoi_lengths(p, closed)
+    else:
+        rest = np.asarray(rest_edge_length, np.float64).reshape(-1)
+        if rest.size != n_edges:
+            raise ConfigError("rest_edge_length", f"{rest.size} lengths for {n_edges} edges (closed={closed})")
+        lv = _voronoi_from_lengths(rest, closed)
     tw = np.zeros(n)
-    lv = voronoi_lengths(p, closed)
     if closed:
-        tw[:] = (th - np.roll(th, 1)) / lv
+        tw[:] = (th - np.roll(th, 1) + ref) / lv
     elif n >= 3:
-        tw[1:-1] = np.diff(th) / lv[1:-1]
+        tw[1:-1] = (np.diff(th) + ref) / lv[1:-1]
     return tw
 
 
@@ -146,6 +180,11 @@ def _frame_vtp(traj: Trajectory, frame: int, encoding: str) -> str:
     angles = np.asarray(traj.edge_angles[frame], dtype=np.float64)
     ns, es = traj.rod_node_start, traj.rod_edge_start
     n_points = int(ns[-1])
+    ref = traj.state.get("reference_twist")
+    ref = None if ref is None else np.asarray(ref[frame], dtype=np.float64)
+    rest = traj.state.get("rest_edge_length")
+    n_int = np.where(traj.rod_closed, np.diff(ns), np.diff(ns) - 2)
+    bs = np.concatenate([[0], np.cumsum(n_int)])
     radius = np.empty(n_points)
     twist = np.empty(n_points)
     strain = np.empty(n_points)
@@ -158,7 +197,9 @@ def _frame_vtp(traj: Trajectory, frame: int, encoding: str) -> str:
         closed = bool(traj.rod_closed[r])
         p = x[a:b]
         radius[a:b] = traj.rod_radius[r]
-        twist[a:b] = node_twist(p, angles[es[r] : es[r + 1]], closed)
+        twist[a:b] = node_twist(p, angles[es[r] : es[r + 1]], closed,
+                                None if ref is None else ref[bs[r] : bs[r + 1]],
+                                None if rest is None else rest[es[r] : es[r + 1]])
         strain[a:b] = node_bending_strain(p, traj.rod_radius[r], closed)
         rod_id[a:b] = r
         idx = np.arange(a, b, dtype=np.int64)
@@ -185,6 +226,8 @@ def _frame_vtp(traj: Trajectory, frame: int, encoding: str) -> str:
         _data_array("radius", radius, 1, encoding, i6),
         _data_array("twist", twist, 1, encoding, i6),
         _data_array("bending_strain", strain, 1, encoding, i6),
+        *([_data_array("contact_force", np.asarray(traj.fields["contact_force"][frame], np.float64), 1,
+                       encoding, i6)] if "contact_force" in traj.fields else []),
         _data_array("rod_id", rod_id, 1, encoding, i6),
         f"{i4}  </PointData>\n",
         f"{i4}  <CellData>\n",
