@@ -94,7 +94,7 @@ FINDINGS = """## Findings
   and the shape after 5 s are predictions. The ratio at μ = 0.1 is sensitive to the slack (1.34
   with the granny at 0.37 m). Magnitudes are not reproduced: below the published curves after 5 s
   at μ = 0.1 (both rise about half as fast) and 2.4× / 2.4× above them at μ = 0.5 (reef 1.98,
-  granny 1.55). The whole μ range is in `docs/studies/granny_vs_reef_mu_prepull_each`.
+  granny 1.55). The whole μ range is in `validation/studies/granny_vs_reef_mu_prepull_each`.
 - **Reviewer checks (μ = 0.1, `pre`):** contact stiffness scaler 2000 and a 3× faster pre-tightening
   change the means by < 1 %; 20 mm/s instead of 10 mm/s gives the same force at equal separation
   (rate independent; its 13 s mean is larger only because the window covers twice the separation);
