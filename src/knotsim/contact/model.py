@@ -14,7 +14,9 @@ rods costs nothing; it is fixed during a Newton solve. During Newton
 every candidate pair contributes the IMC energy ``k_c E(Δ)`` (:mod:`knotsim.contact.potential`) and,
 when ``μ > 0``, the fully implicit smooth Coulomb friction (:mod:`knotsim.contact.friction`). A
 converged step is rejected (:meth:`ContactInteraction.check`) when a pair penetrates deeper than
-``penetration_limit`` times the smaller radius of the pair, or when the list went stale: once the
+``penetration_limit`` times the smaller radius of the pair, when two edges passed through each other
+during the step (a swept test over the straight motion of the step, :mod:`knotsim.contact.swept`,
+so a rope cannot jump through another however far it moved), or when the list went stale: once the
 drift exceeds ``margin / 2``, an exact broad phase at the solution
 (cut-off ``d + delta``) must find no pair outside the list.
 
@@ -42,17 +44,18 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, fields
+from enum import StrEnum
 
 import numpy as np
 
 from knotsim.contact.assembly import (
     approach_forces,
     contact_evaluate,
-    first_side_flip,
     nodal_force_summary,
     pair_dofs_from_edges,
 )
 from knotsim.contact.broadphase import find_candidate_pairs, node_drift
+from knotsim.contact.swept import pass_through, swept_box_pairs
 from knotsim.errors import ConfigError
 from knotsim.geometry import exclusion
 
@@ -63,6 +66,9 @@ PENETRATION_BOOST = 4.0
 #: The pair list is rebuilt when the node drift (see the module docstring) exceeds this fraction of
 #: ``margin`` since the last build.
 REBUILD_FRACTION = 0.5
+#: Centre lines of two edges closer than this fraction of the smaller radius have met: a
+#: pass-through (:mod:`knotsim.contact.swept`).
+CROSSING_TOL = 0.01
 
 __all__ = ["Contact", "ContactInteraction", "ContactOptions", "ContactSettings", "contact_from_config"]
 
@@ -74,6 +80,13 @@ def _positive(name: str, value, allow_zero: bool = False) -> float:
         kind = "non-negative" if allow_zero else "positive"
         raise ConfigError(f"contact.{name}", f"must be a {kind} finite number, got {value!r}")
     return float(value)
+
+
+class StiffnessMode(StrEnum):
+    """How the contact stiffness k_c is chosen (:attr:`ContactOptions.stiffness_mode`)."""
+
+    ADAPTIVE = "adaptive"  #: from the largest contact force and approach speed, step by step
+    CONSTANT = "constant"  #: ``stiffness`` throughout
 
 
 @dataclass
@@ -107,7 +120,7 @@ class ContactOptions:
     delta: float = 5e-4
     nu: float = 1e-4
     mu: float | dict = 0.0
-    stiffness_mode: str = "adaptive"
+    stiffness_mode: StiffnessMode | str = "adaptive"
     stiffness: float | None = None
     stiffness_scaler: float = 500.0
     stiffness_floor: float | None = None
@@ -127,9 +140,11 @@ class ContactOptions:
                     raise ConfigError("contact.mu", f"table keys must be (rod_a, rod_b) pairs or 'default', got {key!r}")
         else:
             self.mu = _positive("mu", self.mu, allow_zero=True)
-        if self.stiffness_mode not in ("adaptive", "constant"):
+        try:
+            self.stiffness_mode = StiffnessMode(self.stiffness_mode)
+        except ValueError:
             raise ConfigError("contact.stiffness_mode",
-                              f"must be 'adaptive' or 'constant', got {self.stiffness_mode!r}")
+                              f"must be 'adaptive' or 'constant', got {self.stiffness_mode!r}") from None
         if self.stiffness is not None:
             self.stiffness = _positive("stiffness", self.stiffness)
         elif self.stiffness_mode == "constant":
@@ -354,13 +369,28 @@ class Contact:
         return ev
 
     def check(self, q) -> str | None:
-        """Reject ``q`` if a pair penetrates deeper than the limit, if two edges within the list's
-        cut-off (``d + delta + margin``) at the start or the end of the step changed sides during it (a rope passed through another,
-        :func:`~knotsim.contact.assembly.first_side_flip`), or if the broad phase went stale."""
+        """Reject ``q`` if two edges passed through each other during the step, if a pair penetrates
+        deeper than the limit, or if the broad phase went stale.
+
+        Pass-through (:mod:`knotsim.contact.swept`): along the straight motion from the start of
+        the step to ``q`` the centre lines of two edges met (came within ``CROSSING_TOL`` times the
+        smaller radius), or two edges within the list's cut-off (``d + delta + margin``) at the
+        start or the end of the step changed sides. The listed pairs are always tested; the other
+        pairs only when the drift exceeds ``margin / 2`` (below it no pair outside the list comes
+        within ``d + delta`` anywhere along the motion): then a broad phase over the swept boxes of
+        all edges finds the pairs to test, however far they moved."""
         s = self.settings
         m = self.model
         k = self.pair_dofs.shape[0]
         dmax = self._max_displacement(q)
+        q_prev = self._q_prev if self._q_prev is not None and self._q_prev.shape == q.shape else None
+        if dmax > 0.5 * s.margin and q_prev is not None:
+            t0 = time.perf_counter()
+            msg = self._swept_outside_list(q_prev, q)
+            self.timers["broad_phase"] += time.perf_counter() - t0
+            if msg is not None:
+                self._q_build = None  # the retry starts from a fresh list
+                return msg
         if dmax > 0.5 * s.margin:
             # a pair outside the list may have come into range: exact test at q
             t0 = time.perf_counter()
@@ -383,14 +413,29 @@ class Contact:
                 a, b = self.pairs[worst]
                 return (f"contact penetration {ratio[worst]:.3g} x radius between edges {a} and {b} exceeds "
                         f"penetration_limit {s.penetration_limit}")
-            if self._q_prev is not None and self._q_prev.shape == q.shape:
-                flip, cos = first_side_flip(self._q_prev, q, self.pair_dofs, self.pair_d + s.delta + s.margin)
-                if flip >= 0:
-                    a, b = self.pairs[flip]
-                    angle = math.degrees(math.acos(max(-1.0, min(1.0, cos))))
-                    return (f"contact pass-through: edges {a} and {b} changed sides during the step (the "
-                            f"vector between their closest points turned by {angle:.0f} deg)")
+            if q_prev is not None:
+                return pass_through(q_prev, q, self.pairs, self.pair_dofs, CROSSING_TOL * self.pair_hmin,
+                                    self.pair_d + s.delta + s.margin)
         return None
+
+    def _swept_outside_list(self, q_prev, q) -> str | None:
+        """Pass-through test of the pairs outside the list whose swept boxes (inflated by the
+        radii) overlap during the step from ``q_prev`` to ``q``; the message, or ``None``."""
+        m = self.model
+        pairs = swept_box_pairs(q_prev, q, m.edge_dofs, m.edge_rod, m.edge_local, m.rod_n_edges, m.rod_closed,
+                                m.edge_radius)
+        if not pairs.shape[0]:
+            return None
+        if not self.settings.self_contact:
+            pairs = pairs[m.edge_rod[pairs[:, 0]] != m.edge_rod[pairs[:, 1]]]
+        elif np.any(self._rod_min_gap > exclusion.MIN_INDEX_GAP):
+            pairs = pairs[self._self_pair_allowed(pairs)]
+        if self._pair_keys.size and pairs.shape[0]:
+            pairs = pairs[~np.isin(pairs[:, 0] * m.n_edges + pairs[:, 1], self._pair_keys)]
+        if not pairs.shape[0]:
+            return None
+        hmin = np.minimum(m.edge_radius[pairs[:, 0]], m.edge_radius[pairs[:, 1]])
+        return pass_through(q_prev, q, pairs, pair_dofs_from_edges(pairs, m.edge_dofs), CROSSING_TOL * hmin)
 
     def check_start(self, q) -> None:
         """Raise :class:`~knotsim.errors.GeometryError` when two rods (or two parts of one rod that
