@@ -14,7 +14,8 @@ how strong they are.
 
 Names are loaded on first use, so that ``import knotsim`` stays fast. Input bundles are called
 ``...Spec`` (what a thing is: ``RodSpec``, ``RunSpec``) or ``...Options`` (how to compute:
-``SolverOptions``, ``ContactOptions``). Every time-dependent callable of a boundary condition
+``SolverOptions``, ``ContactOptions``); closed sets of choices are enums whose members are their
+strings (``ks.LinearSolver.SPARSE == "sparse"``, ``ks.Predictor``, ``ks.StiffnessMode``). Every time-dependent callable of a boundary condition
 (paths, twist angles) takes the time elapsed since its group became active (s); loads (forces,
 moments) take the absolute simulation time (s).
 """
@@ -36,6 +37,10 @@ _LAZY = {
     "FunctionPath": "knotsim.bc",
     # contact
     "Contact": "knotsim.contact.model", "ContactOptions": "knotsim.contact.model",
+    "StiffnessMode": "knotsim.contact.model", "LinearSolver": "knotsim.solver.stepper",
+    "Predictor": "knotsim.solver.stepper",
+    "Obstacle": "knotsim.contact.obstacles", "Plane": "knotsim.contact.obstacles",
+    "Capsule": "knotsim.contact.obstacles", "Sphere": "knotsim.contact.obstacles",
     # solver and simulation
     "SolverOptions": "knotsim.solver.stepper", "Simulation": "knotsim.simulation",
     "solve_static": "knotsim.solver.static",

@@ -1,0 +1,378 @@
+"""Rigid obstacles: planes (floor, wall, table), capsules (posts, pulleys, pegs) and spheres.
+
+>>> floor = Plane(model, "floor", point=(0, 0, 0), normal=(0, 0, 1), mu=0.4)
+>>> post = Capsule(model, "post", a=(0, -0.1, 0), b=(0, 0.1, 0), radius=0.02, mu=0.3)
+>>> sim = Simulation(model, bcs, SolverOptions(dt=1e-3), interactions=[floor, post])
+
+Each obstacle is a stepper interaction (:class:`knotsim.solver.stepper.Interaction`). Every node of
+its rods (default: all rods) is a ball of the rod's radius ``h`` in contact with the obstacle
+through the IMC energy ``k_c E(Δ)`` of :mod:`knotsim.contact.potential` (the same function of the
+gap as rope-rope contact; contact distance ``h + R``) and the smooth Coulomb friction law of
+:mod:`knotsim.contact.friction`, with the obstacle's own ``mu``; the obstacle's surface velocity
+enters the slip velocity. Both are fully implicit: their 3x3 node Jacobians go into Newton's matrix.
+Kernels: :mod:`knotsim.contact.obstacle_kernels`.
+
+Motion: ``path`` translates the obstacle (a :class:`~knotsim.bc.paths.Path`, a velocity in m/s, or
+a callable of time returning a displacement in m; time counts from t = 0), ``angular_velocity``
+(rad/s, a 3-vector) rotates it about ``pivot`` (m; default its reference point: the plane's
+point, the sphere's centre, the capsule's axis midpoint), which moves with the path. The pose at
+the end of each step is used (backward Euler); the surface velocity at a point ``y`` is
+``(path(t) − path(t − dt))/dt + ω × (y − pivot(t))``. A capsule spinning about its own axis is a
+driven pulley: its geometry stays, its surface moves.
+
+Contact stiffness ``k_c`` (N/m): a given ``stiffness`` is used as is. Without one it is adaptive
+like rope-rope contact (:mod:`knotsim.contact.model`): before each step ``k_target =
+stiffness_scaler × F_max / h_min`` with ``F_max`` the largest node contact force of the last accepted
+step or the force that stops the fastest approaching node within one step; ``k_c`` jumps up to the
+target and relaxes down towards it; it never drops below ``stiffness_scaler × (largest node mass ×
+1 m/s²) / h_min``. A step whose deepest penetration exceeds ``penetration_limit × h`` is rejected
+(and, adaptive, retried with ``k_c × 4``).
+
+Reaction: :meth:`Obstacle.stats` logs the force (N) the rods exert on the obstacle,
+``<name>_fx, <name>_fy, <name>_fz``, its moment (N m) about the current pivot, ``<name>_mx,
+<name>_my, <name>_mz`` (forces applied at the surface points ``x − (Δ − R) n``), ``<name>_n_contacts``
+(nodes within ``δ`` of the surface), ``<name>_min_gap`` (m) and ``<name>_k_c`` (N/m).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from knotsim.bc.paths import Path, as_path
+from knotsim.contact.obstacle_kernels import CAPSULE, PLANE, SPHERE, obstacle_evaluate
+from knotsim.errors import ConfigError, GeometryError
+
+__all__ = ["Capsule", "Obstacle", "Plane", "Sphere", "rotation_matrix"]
+
+#: Weight of the new target in the downward moving average of the adaptive stiffness (per step).
+STIFFNESS_RELAX = 0.02
+#: Factor applied to an adaptive stiffness after a step rejected for penetration.
+PENETRATION_BOOST = 4.0
+
+
+def rotation_matrix(rotvec) -> np.ndarray:
+    """Rotation by the rotation vector ``rotvec (3,)`` (rad; axis times angle), Rodrigues' formula."""
+    w = np.asarray(rotvec, float)
+    a = float(np.linalg.norm(w))
+    if a == 0.0:
+        return np.eye(3)
+    k = w / a
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(a) * K + (1.0 - math.cos(a)) * (K @ K)
+
+
+def _vec3(field: str, value) -> np.ndarray:
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        v = np.zeros(0)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise ConfigError(field, f"expected 3 finite numbers, got {value!r}")
+    return v
+
+
+def _number(field: str, value, allow_zero: bool = False) -> float:
+    ok = isinstance(value, int | float | np.floating | np.integer) and not isinstance(value, bool)
+    ok = ok and math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
+    if not ok:
+        kind = "non-negative" if allow_zero else "positive"
+        raise ConfigError(field, f"must be a {kind} finite number, got {value!r}")
+    return float(value)
+
+
+class Obstacle:
+    """A rigid obstacle in frictional contact with the rods of ``model`` (see the module doc).
+
+    Parameters (SI units): ``name`` (log columns ``<name>_fx``, ...); ``mu`` friction coefficient
+    (default 0); ``delta`` IMC distance tolerance δ (m, default 5e-4); ``nu`` slip tolerance (m/s,
+    default 1e-4); ``stiffness`` k_c (N/m, default adaptive); ``stiffness_scaler`` (default 500);
+    ``penetration_limit`` (fraction of the rod radius, default 0.2); ``path``, ``angular_velocity``,
+    ``pivot`` (motion); ``rods``: rods (names or indices) that touch it, default all.
+    Subclasses set the geometry: :class:`Plane`, :class:`Capsule`, :class:`Sphere`.
+    """
+
+    kind = -1
+    type_name = ""
+
+    def __init__(self, model, name: str, *, mu: float = 0.0, delta: float = 5e-4, nu: float = 1e-4,
+                 stiffness: float | None = None, stiffness_scaler: float = 500.0, penetration_limit: float = 0.2,
+                 path=None, angular_velocity=None, pivot=None, rods=None):
+        if not isinstance(name, str) or not name:
+            raise ConfigError("obstacle.name", f"an obstacle needs a non-empty name, got {name!r}")
+        self.name = name
+        f = f"obstacles.{name}"
+        self.model = model
+        self.mu = _number(f"{f}.mu", mu, allow_zero=True)
+        self.delta = _number(f"{f}.delta", delta)
+        self.nu = _number(f"{f}.nu", nu)
+        self.stiffness = None if stiffness is None else _number(f"{f}.stiffness", stiffness)
+        self.stiffness_scaler = _number(f"{f}.stiffness_scaler", stiffness_scaler)
+        self.penetration_limit = _number(f"{f}.penetration_limit", penetration_limit)
+        try:
+            self.path: Path | None = None if path is None else as_path(path)
+        except ConfigError as exc:
+            raise ConfigError(f"{f}.{exc.field}", str(exc).split(": ", 1)[1]) from None
+        self.omega = np.zeros(3) if angular_velocity is None else _vec3(f"{f}.angular_velocity", angular_velocity)
+        self._center0 = None if pivot is None else _vec3(f"{f}.pivot", pivot)
+        m = model
+        if rods is None:
+            sel = np.arange(m.n_rods)
+        else:
+            try:
+                sel = np.array([m.rod_index(r) for r in (rods if isinstance(rods, list | tuple) else [rods])])
+            except ConfigError as exc:
+                raise ConfigError(f"{f}.rods", str(exc).split(": ", 1)[-1]) from None
+        self.nodes = np.ascontiguousarray(np.flatnonzero(np.isin(m.node_rod, sel)), dtype=np.int64)
+        self.node_h = np.ascontiguousarray(m.rod_radius[m.node_rod[self.nodes]], dtype=float)
+        self.node_mass = m.mass[m.node_dof[self.nodes]]
+        self._dofs = np.ascontiguousarray(m.node_dof[self.nodes][:, None] + np.arange(3)[None, :], dtype=np.int64)
+        self.h_min = float(np.min(self.node_h)) if self.nodes.size else 1.0
+        self.k_floor = self.stiffness_scaler * (float(np.max(self.node_mass)) if self.nodes.size else 0.0) / self.h_min
+        self.k_c = self.stiffness if self.stiffness is not None else self.k_floor
+        self._fmax_accepted = 0.0
+        self._fmax_pending = 0.0
+        self._dt_ref = 0.0
+        k = self.nodes.size
+        self._blocks = np.zeros((k, 3, 3))
+        self._fc = np.zeros((k, 3))
+        self._ff = np.zeros((k, 3))
+        self._gap = np.full(k, np.inf)
+        self._normal = np.zeros((k, 3))
+        self._stats: dict = {}
+        self._time = 0.0
+        self._set_pose(0.0, 1.0)
+        if self.path is not None:
+            self.path.bind(self.pivot(0.0))
+            start = self.path.absolute_start
+            if start is not None and np.linalg.norm(start - self._ref0) > 1e-9 * max(1.0, float(np.abs(self._ref0).max())):
+                raise ConfigError(f"{f}.waypoints", f"absolute waypoints start at {start.tolist()} m but the "
+                                                    f"obstacle's centre is at {self._ref0.tolist()} m")
+
+    # ------------------------------------------------------------------ geometry
+    @property
+    def _ref0(self) -> np.ndarray:
+        return self._center0 if self._center0 is not None else self.reference_point()
+
+    def reference_point(self) -> np.ndarray:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def _geometry(self, R: np.ndarray, shift: np.ndarray, c0: np.ndarray) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
+
+    def _displacement(self, t: float) -> np.ndarray:
+        return np.zeros(3) if self.path is None else np.asarray(self.path(max(t, 0.0)), float)
+
+    def pivot(self, t: float) -> np.ndarray:
+        """Centre of rotation (and of the logged moment) at time ``t`` (s), m."""
+        return self._ref0 + self._displacement(t)
+
+    def geometry(self, t: float) -> np.ndarray:
+        """Packed geometry ``(7,)`` at time ``t`` (s) (see :mod:`~knotsim.contact.obstacle_kernels`)."""
+        return self._geometry(rotation_matrix(self.omega * t), self._displacement(t), self._ref0)
+
+    def _set_pose(self, t: float, dt: float) -> None:
+        self._time = t
+        self._geom = np.ascontiguousarray(self.geometry(t))
+        self._vel = (self._displacement(t) - self._displacement(t - dt)) / dt if self.path is not None else np.zeros(3)
+        self._cen = np.ascontiguousarray(self.pivot(t))
+
+    # ------------------------------------------------------------------ Interaction protocol
+    def begin_step(self, state_in, dt: float) -> None:
+        """Pose at the end of the step and, adaptive, the stiffness for it."""
+        self._set_pose(state_in.time + dt, dt)
+        if self.stiffness is not None or not self.nodes.size:
+            return
+        self._dt_ref = max(self._dt_ref, dt)
+        f_imp = self._impact_force(state_in)
+        fmax = max(self._fmax_accepted, f_imp)
+        if fmax > 0.0:
+            target = self.stiffness_scaler * fmax / self.h_min
+            self.k_c = target if target > self.k_c else self.k_c + STIFFNESS_RELAX * (target - self.k_c)
+        self.k_c = max(self.k_c, self.k_floor)
+
+    def _impact_force(self, state_in) -> float:
+        """Largest ``mass × approach speed / dt`` (N) of the nodes within ``δ`` + one step of travel."""
+        m = self.model
+        q = state_in.q
+        scratch = np.zeros(m.n_dofs)
+        blocks = np.zeros((self.nodes.size, 3, 3))
+        fc = np.zeros((self.nodes.size, 3))
+        gap = np.zeros(self.nodes.size)
+        normal = np.zeros((self.nodes.size, 3))
+        obstacle_evaluate(self.kind, self._geom, self.nodes, m.node_dof, self.node_h, q, q, 1.0, self.delta, 1.0,
+                          0.0, self.nu, self._vel, self.omega, self._cen, scratch, False, blocks, fc, fc.copy(),
+                          gap, normal)
+        v = state_in.v[self._dofs]
+        vn = -np.einsum("ij,ij->i", v - self._vel[None, :], normal)  # approach speed, m/s
+        near = gap < self.delta + np.maximum(vn, 0.0) * self._dt_ref
+        if not np.any(near & (vn > 0)):
+            return 0.0
+        return float(np.max(np.where(near & (vn > 0), self.node_mass * vn / self._dt_ref, 0.0)))
+
+    def block_dofs(self) -> np.ndarray:
+        """``(k, 3)`` coordinates of every node of the obstacle's rods (the pattern never changes)."""
+        return self._dofs
+
+    #: constant: the blocks are the same node coordinates every step
+    pattern_version = 0
+
+    def evaluate(self, q, q_prev, dt, residual, want_jacobian):
+        """Add ``−(contact + friction force)`` (N) to ``residual``; return ``(k_c ΣE (J), (k,3,3) | None)``."""
+        m = self.model
+        e = obstacle_evaluate(self.kind, self._geom, self.nodes, m.node_dof, self.node_h, q, q_prev, dt,
+                              self.delta, self.k_c, self.mu, self.nu, self._vel, self.omega, self._cen, residual,
+                              bool(want_jacobian), self._blocks, self._fc, self._ff, self._gap, self._normal)
+        self._q_eval = q.copy()
+        self._qp_eval, self._dt_eval = q_prev, dt
+        return float(e), (self._blocks if want_jacobian else None)
+
+    def _evaluate_at(self, q) -> None:
+        if getattr(self, "_q_eval", None) is None or not np.array_equal(self._q_eval, q):
+            qp = getattr(self, "_qp_eval", None)
+            self.evaluate(q, qp if qp is not None else q, getattr(self, "_dt_eval", 1.0), np.zeros(q.shape[0]),
+                          False)
+
+    def check(self, q) -> str | None:
+        """Reject ``q`` if a node penetrates deeper than ``penetration_limit × h``."""
+        if not self.nodes.size:
+            self._stats = self._summary(q)
+            return None
+        self._evaluate_at(q)
+        ratio = -self._gap / self.node_h
+        i = int(np.argmax(ratio))
+        self._stats = self._summary(q)
+        if ratio[i] > self.penetration_limit:
+            if self.stiffness is None:
+                self.k_c *= PENETRATION_BOOST
+            return (f"obstacle {self.name!r}: node {int(self.nodes[i])} penetrates {ratio[i]:.3g} x its radius "
+                    f"(penetration_limit {self.penetration_limit})")
+        return None
+
+    def check_start(self, q) -> None:
+        """Raise :class:`~knotsim.errors.GeometryError` when a node starts deeper inside the obstacle
+        than ``penetration_limit × h`` (the first step would be rejected)."""
+        self._set_pose(0.0, 1.0)
+        self._evaluate_at(q)
+        if not self.nodes.size:
+            return
+        ratio = -self._gap / self.node_h
+        i = int(np.argmax(ratio))
+        if ratio[i] > self.penetration_limit:
+            m = self.model
+            n = int(self.nodes[i])
+            rod = int(m.node_rod[n])
+            raise GeometryError(
+                f"obstacle {self.name!r}: node {n - int(m.rod_node_start[rod])} of rod {m.rod_names[rod]!r} starts "
+                f"{-self._gap[i]:.4g} m inside it ({ratio[i]:.2f} radii; limit {self.penetration_limit}); move the "
+                f"obstacle or the rod")
+
+    def _summary(self, q) -> dict:
+        x = q[self._dofs] if self.nodes.size else np.zeros((0, 3))
+        f_on_obstacle = -(self._fc + self._ff)
+        # the surface point is x - (Δ - R) n, and Δ - R = gap + h
+        surface = x - (self._gap + self.node_h)[:, None] * self._normal if self.nodes.size else x
+        arm = surface - self._cen[None, :]
+        force = f_on_obstacle.sum(axis=0)
+        moment = np.cross(arm, f_on_obstacle).sum(axis=0) if self.nodes.size else np.zeros(3)
+        fn = np.linalg.norm(self._fc, axis=1) if self.nodes.size else np.zeros(0)
+        self._fmax_pending = float(fn.max()) if fn.size else 0.0
+        n = self.name
+        return {f"{n}_fx": float(force[0]), f"{n}_fy": float(force[1]), f"{n}_fz": float(force[2]),
+                f"{n}_mx": float(moment[0]), f"{n}_my": float(moment[1]), f"{n}_mz": float(moment[2]),
+                f"{n}_n_contacts": int(np.count_nonzero(self._gap < self.delta)),
+                f"{n}_min_gap": float(self._gap.min()) if self.nodes.size else math.nan, f"{n}_k_c": float(self.k_c)}
+
+    def stats(self) -> dict:
+        """Reaction force (N) and moment (N m) on the obstacle and contact numbers of the last accepted
+        step (see the module doc)."""
+        self._fmax_accepted = self._fmax_pending
+        return dict(self._stats)
+
+    def reaction(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(force (3,), moment (3,))`` on the obstacle at the last accepted step (N, N m)."""
+        s = self._stats
+        n = self.name
+        return (np.array([s[f"{n}_fx"], s[f"{n}_fy"], s[f"{n}_fz"]]),
+                np.array([s[f"{n}_mx"], s[f"{n}_my"], s[f"{n}_mz"]]))
+
+    # ------------------------------------------------------------------ checkpoints
+    def save_state(self) -> tuple[dict, dict]:
+        """Stiffness memory and the path's bound start, ``(scalars, arrays)`` for checkpoints."""
+        meta = {"k_c": float(self.k_c), "fmax_accepted": float(self._fmax_accepted), "dt_ref": float(self._dt_ref)}
+        arrays = {}
+        bound = self.path.bound_state() if self.path is not None else None
+        if bound is not None:
+            arrays["path_start"] = bound
+        return meta, arrays
+
+    def load_state(self, meta: dict, arrays: dict) -> None:
+        """Restore what :meth:`save_state` returned (nothing to do for an empty section)."""
+        if not meta:
+            return
+        self.k_c = float(meta["k_c"])
+        self._fmax_accepted = float(meta["fmax_accepted"])
+        self._dt_ref = float(meta["dt_ref"])
+        if self.path is not None and "path_start" in arrays:
+            self.path.bind(np.array(arrays["path_start"], float))
+
+
+class Plane(Obstacle):
+    """Half-space below the plane through ``point`` (m) with outward ``normal`` (made unit): a floor,
+    wall or table top. The rods stay on the side the normal points to."""
+
+    kind = PLANE
+    type_name = "plane"
+
+    def __init__(self, model, name: str, point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), **options):
+        self.point = _vec3(f"obstacles.{name}.point", point)
+        n = _vec3(f"obstacles.{name}.normal", normal)
+        if np.linalg.norm(n) == 0.0:
+            raise ConfigError(f"obstacles.{name}.normal", "must not be the zero vector")
+        self.normal = n / np.linalg.norm(n)
+        super().__init__(model, name, **options)
+
+    def reference_point(self) -> np.ndarray:
+        return self.point
+
+    def _geometry(self, R, shift, c0):
+        return np.concatenate([c0 + shift + R @ (self.point - c0), R @ self.normal, [0.0]])
+
+
+class Sphere(Obstacle):
+    """Ball of ``radius`` (m) about ``center`` (m)."""
+
+    kind = SPHERE
+    type_name = "sphere"
+
+    def __init__(self, model, name: str, center=(0.0, 0.0, 0.0), radius: float = 0.01, **options):
+        self.sphere_center = _vec3(f"obstacles.{name}.center", center)
+        self.radius = _number(f"obstacles.{name}.radius", radius)
+        super().__init__(model, name, **options)
+
+    def reference_point(self) -> np.ndarray:
+        return self.sphere_center
+
+    def _geometry(self, R, shift, c0):
+        return np.concatenate([c0 + shift + R @ (self.sphere_center - c0), [0.0, 0.0, 0.0], [self.radius]])
+
+
+class Capsule(Obstacle):
+    """Cylinder of ``radius`` (m) about the segment from ``a`` to ``b`` (m) with hemispherical caps:
+    a post, peg or pulley (``a == b`` is a sphere)."""
+
+    kind = CAPSULE
+    type_name = "capsule"
+
+    def __init__(self, model, name: str, a=(0.0, 0.0, 0.0), b=(0.0, 0.0, 1.0), radius: float = 0.01, **options):
+        self.a = _vec3(f"obstacles.{name}.a", a)
+        self.b = _vec3(f"obstacles.{name}.b", b)
+        self.radius = _number(f"obstacles.{name}.radius", radius)
+        super().__init__(model, name, **options)
+
+    def reference_point(self) -> np.ndarray:
+        return 0.5 * (self.a + self.b)
+
+    def _geometry(self, R, shift, c0):
+        return np.concatenate([c0 + shift + R @ (self.a - c0), c0 + shift + R @ (self.b - c0), [self.radius]])
