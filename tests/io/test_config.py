@@ -311,7 +311,7 @@ BAD = [
     ("solver.dt", -1e-3, "solver.dt", "must be a positive time step in s, got -0.001"),
     ("solver.dt", "1ms", "solver.dt", "expected a number, got '1ms' (str)"),
     ("solver.max_iterations", 2.5, "solver.max_iterations", "expected an integer"),
-    ("solver.linear_solver", "magic", "solver.linear_solver", "must be 'auto', 'banded' or 'sparse'"),
+    ("solver.linear_solver", "magic", "solver.linear_solver", "must be one of 'auto', 'banded', 'sparse', got 'magic'"),
     ("solver.line_search", 1, "solver.line_search", "expected true or false"),
     ("solver.dtt", 1e-3, "solver.dtt", "did you mean 'dt'?"),
     ("run.duration", _DELETE, "run.duration", "missing required field"),

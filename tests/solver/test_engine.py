@@ -187,3 +187,15 @@ def test_huge_end_force_is_a_simulation_error_not_a_traceback():
     assert sim.n_failures >= 4
     good = info.value.last_good_state
     assert good is not None and np.all(np.isfinite(good.q))
+
+
+def test_closed_option_sets_are_enums_whose_members_are_their_strings():
+    from knotsim.errors import ConfigError
+    from knotsim.solver.stepper import LinearSolver, Predictor, SolverOptions
+
+    opts = SolverOptions(linear_solver="sparse", predictor=Predictor.VELOCITY)
+    opts.validate()
+    assert opts.linear_solver is LinearSolver.SPARSE and opts.linear_solver == "sparse"
+    assert opts.predictor is Predictor.VELOCITY
+    with pytest.raises(ConfigError, match=r"solver\.predictor: must be one of 'acceleration', 'velocity', 'previous'"):
+        SolverOptions(predictor="guess").validate()

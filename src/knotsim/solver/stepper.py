@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Protocol
 
 import numpy as np
@@ -44,6 +45,22 @@ class Interaction(Protocol):
 
     def stats(self) -> dict:
         """Numbers to log for the last accepted step."""
+
+
+class LinearSolver(StrEnum):
+    """How Newton's linear systems are solved (:attr:`SolverOptions.linear_solver`)."""
+
+    AUTO = "auto"      #: banded when the bandwidth allows it, else sparse
+    BANDED = "banded"  #: banded LDL^T / LU
+    SPARSE = "sparse"  #: fixed-pattern sparse LU
+
+
+class Predictor(StrEnum):
+    """Initial Newton guess of a step (:attr:`SolverOptions.predictor`)."""
+
+    ACCELERATION = "acceleration"  #: q_n + dt v*, v extrapolated at constant acceleration
+    VELOCITY = "velocity"          #: q_n + dt v_n
+    PREVIOUS = "previous"          #: q_n
 
 
 class StepFailure(Exception):
@@ -83,8 +100,8 @@ class SolverOptions:
     line_search: bool = True
     grow_after: int = 5
     easy_iterations: int = 4
-    linear_solver: str = "auto"
-    predictor: str = "acceleration"
+    linear_solver: LinearSolver | str = LinearSolver.AUTO
+    predictor: Predictor | str = Predictor.ACCELERATION
     jacobian_reuse: bool = True
 
     def validate(self) -> None:
@@ -98,12 +115,18 @@ class SolverOptions:
             v = getattr(self, name)
             if v is not None and not (v > 0):
                 raise ConfigError(f"solver.{name}", f"must be positive, got {v!r}")
-        if self.linear_solver not in ("auto", "banded", "sparse"):
-            raise ConfigError("solver.linear_solver",
-                              f"must be 'auto', 'banded' or 'sparse', got {self.linear_solver!r}")
-        if self.predictor not in ("velocity", "acceleration", "previous"):
-            raise ConfigError("solver.predictor",
-                              f"must be 'velocity', 'acceleration' or 'previous', got {self.predictor!r}")
+        self.linear_solver = _member(LinearSolver, self.linear_solver, "solver.linear_solver")
+        self.predictor = _member(Predictor, self.predictor, "solver.predictor")
+
+
+def _member(enum, value, field: str):
+    """``value`` (a member or its string) as a member of ``enum``; :class:`ConfigError` naming
+    ``field`` and the allowed values otherwise."""
+    try:
+        return enum(value)
+    except ValueError:
+        allowed = ", ".join(repr(m.value) for m in enum)
+        raise ConfigError(field, f"must be one of {allowed}, got {value!r}") from None
 
 
 #: Former name of :class:`SolverOptions`.
