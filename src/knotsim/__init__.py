@@ -15,9 +15,8 @@ how strong they are.
 Names are loaded on first use, so that ``import knotsim`` stays fast. Input bundles are called
 ``...Spec`` (what a thing is: ``RodSpec``, ``RunSpec``) or ``...Options`` (how to compute:
 ``SolverOptions``, ``ContactOptions``); closed sets of choices are enums whose members are their
-strings (``ks.LinearSolver.SPARSE == "sparse"``, ``ks.Predictor``, ``ks.StiffnessMode``). Every time-dependent callable of a boundary condition
-(paths, twist angles) takes the time elapsed since its group became active (s); loads (forces,
-moments) take the absolute simulation time (s).
+strings (``ks.LinearSolver.SPARSE == "sparse"``, ``ks.Predictor``, ``ks.StiffnessMode``). Every time-dependent callable of a boundary condition (paths,
+twist angles, forces, moments) takes the time elapsed since its group became active (s).
 """
 
 from __future__ import annotations

@@ -234,3 +234,19 @@ def test_from_current_needs_absolute_and_positive_first_time():
         Waypoints([1.0], [[0, 0, 0]], from_current=True)
     with pytest.raises(ConfigError, match="times: with from_current the first time must be > 0"):
         Waypoints([0.0, 1.0], [[0, 0, 0], [1, 0, 0]], absolute=True, from_current=True)
+
+
+def test_every_time_dependent_condition_counts_from_its_start():
+    """One time convention: force callables, like paths, take the time since the group started."""
+    import numpy as np
+
+    from knotsim.bc import BoundaryConditions
+    from knotsim.rods import Model, RodSpec
+
+    x = np.zeros((5, 3))
+    x[:, 0] = np.linspace(0, 0.1, 5)
+    model = Model([RodSpec(x, radius=1e-3, youngs_modulus=1e6, density=1000.0)])
+    bcs = BoundaryConditions(model)
+    bcs.force("f", nodes=[-1], force=lambda e: [e, 0.0, 0.0], start=2.0)
+    _, _, f = bcs.evaluate(2.5, np.zeros(model.n_dofs), 2.4)
+    assert f[model.node_dof[-1]] == 0.5  # 0.5 s after its start, not 2.5

@@ -206,8 +206,8 @@ class BoundaryConditions:
 
     def force(self, name: str, rod=None, nodes: Sequence[int] = (-1,), force=(0.0, 0.0, 0.0),
               start: float = 0.0, stop: float | None = None) -> Group:
-        """Apply a total force (N; a 3-vector or a callable of absolute time) split equally over
-        ``nodes``."""
+        """Apply a total force (N; a 3-vector or a callable of the time elapsed since the group became
+        active, s, like every time-dependent boundary condition) split equally over ``nodes``."""
         self._check_name(name)
         start, stop = self._check_window(name, start, stop)
         r, g = self._group_nodes(name, rod, nodes)
@@ -216,7 +216,8 @@ class BoundaryConditions:
 
     def moment(self, name: str, rod=None, edges: Sequence[int] = (-1,), moment=0.0, start: float = 0.0,
                stop: float | None = None) -> Group:
-        """Apply a twisting moment (N m, scalar or callable of absolute time) on each of ``edges``."""
+        """Apply a twisting moment (N m, scalar or callable of the time elapsed since the group became
+        active, s) on each of ``edges``."""
         self._check_name(name)
         start, stop = self._check_window(name, start, stop)
         r = self.model.rod_index(self._rod(name, rod))
@@ -281,11 +282,11 @@ class BoundaryConditions:
                     dofs.append(th_dofs)
                     vals.append(np.asarray(th, float))
             elif g.kind == "force":
-                f = g.load(t) / len(g.nodes)
+                f = g.load(t - g.start) / len(g.nodes)
                 for k in range(3):
                     f_ext[m.node_dof[g.nodes] + k] += f[k]
             elif g.kind == "moment":
-                f_ext[m.edge_theta_dof[g.edges]] += g.load(t)
+                f_ext[m.edge_theta_dof[g.edges]] += g.load(t - g.start)
         if dofs:
             d = np.concatenate(dofs)
             v = np.concatenate(vals)

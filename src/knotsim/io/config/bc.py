@@ -44,7 +44,7 @@ class BCSpec:
     key_map: dict = field(default_factory=dict)  # API field suffix -> TOML key
 
 
-def _ramp(value, path: str, start: float, shape: tuple):
+def _ramp(value, path: str, shape: tuple):
     r = as_table(value, path)
     check_keys(r, path, ("from", "to", "duration", "rate"))
     conv = as_vec3 if shape == (3,) else as_number
@@ -54,19 +54,34 @@ def _ramp(value, path: str, start: float, shape: tuple):
             raise ConfigError(f"{path}.rate", "give either rate (per s, unbounded) or to and duration")
         rate = get_field(r, "rate", path, conv)
 
-        def growing(t: float):
-            """Load at absolute time ``t`` (s): ``from + rate (t - start)`` from ``start`` on."""
-            return f0 + rate * max(t - start, 0.0)
+        def growing(elapsed: float):
+            """Load ``elapsed`` s after the group's ``start``: ``from + rate elapsed``."""
+            return f0 + rate * max(elapsed, 0.0)
 
         return growing
     f1 = get_field(r, "to", path, conv)
     dur = get_field(r, "duration", path, as_number, positive=True)
 
-    def load(t: float):
-        """Load at absolute time ``t`` (s): linear from ``start`` to ``start + duration``."""
-        return f0 + (f1 - f0) * min(max((t - start) / dur, 0.0), 1.0)
+    def load(elapsed: float):
+        """Load ``elapsed`` s after the group's ``start``: linear over ``duration``, then constant."""
+        return f0 + (f1 - f0) * min(max(elapsed / dur, 0.0), 1.0)
 
     return load
+
+
+def parse_waypoints(value, wpath: str) -> Waypoints:
+    """A ``waypoints = {times, points, absolute, from_current, then_velocity}`` table."""
+    w = as_table(value, wpath)
+    check_keys(w, wpath, ("times", "points", "absolute", "from_current", "then_velocity"))
+    times = get_field(w, "times", wpath, as_numbers)
+    points = get_field(w, "points", wpath, as_numbers)
+    absolute = get_field(w, "absolute", wpath, as_bool, False)
+    from_current = get_field(w, "from_current", wpath, as_bool, False)
+    then_v = get_field(w, "then_velocity", wpath, as_vec3, None)
+    try:
+        return Waypoints(times, points, absolute=absolute, from_current=from_current, then_velocity=then_v)
+    except ConfigError as exc:
+        raise ConfigError(f"{wpath}.{exc.field}", error_message(exc)) from None
 
 
 def parse_bc(t, i: int) -> BCSpec:
@@ -110,19 +125,7 @@ def parse_bc(t, i: int) -> BCSpec:
             kw["path"] = as_vec3(t["velocity"], f"{path}.velocity")
             key_map["path"] = "velocity"
         else:
-            wpath = f"{path}.waypoints"
-            w = as_table(t["waypoints"], wpath)
-            check_keys(w, wpath, ("times", "points", "absolute", "from_current", "then_velocity"))
-            times = get_field(w, "times", wpath, as_numbers)
-            points = get_field(w, "points", wpath, as_numbers)
-            absolute = get_field(w, "absolute", wpath, as_bool, False)
-            from_current = get_field(w, "from_current", wpath, as_bool, False)
-            then_v = get_field(w, "then_velocity", wpath, as_vec3, None)
-            try:
-                kw["path"] = Waypoints(times, points, absolute=absolute, from_current=from_current,
-                                       then_velocity=then_v)
-            except ConfigError as exc:
-                raise ConfigError(f"{wpath}.{exc.field}", error_message(exc)) from None
+            kw["path"] = parse_waypoints(t["waypoints"], f"{path}.waypoints")
             key_map["path"] = "waypoints"
     elif kind == "rotate":
         kw["rate"] = get_field(t, "rate", path, as_number)
@@ -135,7 +138,7 @@ def parse_bc(t, i: int) -> BCSpec:
             value = as_vec3(t[kind], f"{path}.{kind}") if shape else as_number(t[kind], f"{path}.{kind}")
             key_map[""] = kind
         else:
-            value = _ramp(t["ramp"], f"{path}.ramp", start, shape)
+            value = _ramp(t["ramp"], f"{path}.ramp", shape)
             key_map[""] = "ramp"
         kw[kind] = value
     return BCSpec(i, kind, name, kw, key_map)
