@@ -263,6 +263,7 @@ def _register_subcommands() -> None:
 
     for command in (knots, pull, tie, study, report, animate):
         main.add_command(command)
+    main.add_command(importlib.import_module("knotsim.viz.cli").view)
 
 
 _register_subcommands()

@@ -1,0 +1,42 @@
+"""Command ``knotsim view`` (registered on the main group by :mod:`knotsim.cli`)::
+
+    knotsim view RUN_DIR --html FILE [--max-frames N]   # self-contained HTML page (the view extra)
+    knotsim view RUN_DIR                                # interactive window (the render extra, a display)
+
+Exit codes as for the other commands: 0 success, 2 bad input, a missing extra or no display (one
+line on stderr, no traceback).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from knotsim._cli_errors import EXIT_BAD_INPUT, error
+from knotsim._cli_errors import exit_codes as _exit_codes
+
+
+@click.command("view")
+@click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("--html", "html", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write a self-contained HTML page (rods animated over time with a slider, the force "
+                   "curve beside them; opens without network access) instead of opening a window.")
+@click.option("--max-frames", type=click.IntRange(min=2), default=100, show_default=True,
+              help="Show at most this many frames, evenly spaced over the run.")
+@_exit_codes
+def view(run_dir: Path, html: Path | None, max_frames: int):
+    """View the run in RUN_DIR: an interactive 3D window, or with --html FILE a web page."""
+    from knotsim.viz import view as _view
+
+    _view.run_directory(run_dir)
+    try:
+        if html is not None:
+            click.echo(str(_view.write_html(run_dir, html, max_frames=max_frames)))
+            return
+        if not _view.has_display():
+            error(f"no display to open a window on; write a page instead: knotsim view {run_dir} --html FILE",
+                  EXIT_BAD_INPUT)
+        _view.show_window(run_dir, max_frames=max_frames)
+    except ImportError as exc:
+        error(str(exc), EXIT_BAD_INPUT)

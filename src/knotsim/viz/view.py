@@ -1,0 +1,249 @@
+"""Interactive views of a run: a self-contained HTML page (plotly) or a 3D window (pyvista).
+
+:func:`write_html` writes one HTML file with the rods drawn as thick lines (one colour per rod)
+animated over time, a time slider and a play button, and beside them the force curve of the run
+with a marker at the shown frame. The plotly.js library is embedded in the page, so the page opens
+without network access (about 5 MB). It needs the ``view`` extra (``pip install 'knotsim[view]'``).
+
+:func:`show_window` opens an interactive pyvista window (the ``render`` extra): the rods as tubes,
+a slider over the frames. It needs a display; :func:`has_display` says whether there is one.
+
+The force curve (N, against time in s) is the protocol's pull force ``F`` when the log has it
+(``knotsim pull`` runs), else the magnitude ``<group>_force`` of every boundary-condition group's
+reaction force (plain ``knotsim run`` runs; groups that never carry a force are left out).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from knotsim.errors import ConfigError
+
+__all__ = ["force_curves", "has_display", "run_directory", "select_frames", "show_window", "write_html"]
+
+#: Colour of each rod (cycled), as CSS hex strings.
+ROD_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf")
+#: Not reaction forces, though their names end in ``_force``.
+_NOT_REACTIONS = {"contact_force_total", "friction_force_total"}
+
+
+def run_directory(run_dir: str | os.PathLike) -> Path:
+    """``run_dir`` as a Path; :class:`~knotsim.errors.ConfigError` unless it holds ``trajectory.h5``."""
+    run = Path(run_dir)
+    if not (run / "trajectory.h5").is_file():
+        raise ConfigError("run_dir", f"{str(run)!r} has no trajectory.h5 (is it a knotsim run directory?)")
+    return run
+
+
+def select_frames(n_frames: int, max_frames: int) -> np.ndarray:
+    """At most ``max_frames`` frame indices out of ``n_frames``, evenly spaced, first and last included."""
+    if int(max_frames) < 2:
+        raise ConfigError("max_frames", f"must be >= 2, got {max_frames}")
+    if n_frames <= max_frames:
+        return np.arange(n_frames)
+    return np.unique(np.round(np.linspace(0, n_frames - 1, int(max_frames))).astype(np.int64))
+
+
+def force_curves(run_dir: str | os.PathLike) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """``(time (s), {label: force (N)})`` of the run's ``log.parquet`` (see the module docstring);
+    empty when the run has no log."""
+    import pandas as pd
+
+    path = Path(run_dir) / "log.parquet"
+    if not path.is_file():
+        return np.empty(0), {}
+    log = pd.read_parquet(path)
+    t = log["time"].to_numpy(dtype=float)
+    if "F" in log.columns:
+        return t, {"pull force F": log["F"].to_numpy(dtype=float)}
+    curves = {}
+    for col in log.columns:
+        if col.endswith("_force") and col not in _NOT_REACTIONS:
+            f = log[col].to_numpy(dtype=float)
+            if np.any(np.abs(f[np.isfinite(f)]) > 0):
+                curves[f"{col[: -len('_force')]} reaction |F|"] = f
+    return t, curves
+
+
+def _frame_lines(traj, i: int) -> list[np.ndarray]:
+    """Centre lines of loaded frame ``i``, a ring's first node repeated at its end."""
+    lines = traj.centerlines(i)
+    return [np.vstack([p, p[:1]]) if traj.rod_closed[r] else p for r, p in enumerate(lines)]
+
+
+def _scene_box(traj, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper corners (m) of a box holding every selected frame, each side at least a tenth
+    of the longest (a flat knot keeps some depth)."""
+    x = np.asarray(traj.positions[frames], dtype=float).reshape(-1, 3)
+    pad = float(np.max(traj.rod_radius))
+    lo, hi = x.min(axis=0) - pad, x.max(axis=0) + pad
+    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    half = np.maximum(half, 0.1 * half.max())
+    return mid - half, mid + half
+
+
+def _import_plotly():
+    try:
+        import plotly.graph_objects as go
+        from plotly.subplots import make_subplots
+    except ImportError:
+        raise ImportError("knotsim view --html needs plotly: pip install 'knotsim[view]'") from None
+    return go, make_subplots
+
+
+def write_html(run_dir: str | os.PathLike, out: str | os.PathLike, *, max_frames: int = 100,
+               line_width: float = 8.0) -> Path:
+    """Write the self-contained HTML page of ``run_dir`` (see the module docstring) to ``out``.
+
+    Parameters
+    ----------
+    run_dir:
+        A run directory (``trajectory.h5``; ``log.parquet`` for the force curve).
+    out:
+        The ``.html`` file to write (its directory is created).
+    max_frames:
+        At most this many frames are shown, evenly spaced over the run (the first and the last
+        included): the page grows by about ``24 * n_nodes`` bytes per frame.
+    line_width:
+        Width of the rods' lines, in screen pixels.
+
+    Returns
+    -------
+    Path
+        ``out``.
+    """
+    from knotsim.io.trajectory import read_trajectory
+
+    go, make_subplots = _import_plotly()
+    run = run_directory(run_dir)
+    t_log, curves = force_curves(run)
+    with read_trajectory(run / "trajectory.h5", lazy=True) as traj:
+        if traj.n_frames == 0:
+            raise ConfigError("trajectory", f"{run / 'trajectory.h5'} has no frames")
+        frames = select_frames(traj.n_frames, max_frames)
+        lo, hi = _scene_box(traj, frames)
+        lines = {int(i): _frame_lines(traj, int(i)) for i in frames}
+        times = np.asarray(traj.time[frames], dtype=float)
+        names = list(traj.rod_names)
+
+    has_force = bool(curves)
+    fig = make_subplots(rows=1, cols=2 if has_force else 1, column_widths=[0.58, 0.42] if has_force else None,
+                        specs=[[{"type": "scene"}, {"type": "xy"}] if has_force else [{"type": "scene"}]],
+                        horizontal_spacing=0.08)
+
+    def rod_traces(i: int) -> list:
+        return [go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="lines", name=names[r],
+                             line={"width": line_width, "color": ROD_COLORS[r % len(ROD_COLORS)]},
+                             hoverinfo="name")
+                for r, p in enumerate(lines[i])]
+
+    first = int(frames[0])
+    for trace in rod_traces(first):
+        fig.add_trace(trace, row=1, col=1)
+    n_rods = len(names)
+    marker_index = None
+    main_curve = None
+    if has_force:
+        for k, (label, f) in enumerate(curves.items()):
+            fig.add_trace(go.Scatter(x=t_log, y=f, mode="lines", name=label,
+                                     line={"color": ROD_COLORS[(n_rods + k) % len(ROD_COLORS)]}), row=1, col=2)
+        main_label, main_curve = next(iter(curves.items()))
+        marker_index = n_rods + len(curves)
+
+        def marker(t: float):
+            j = int(np.argmin(np.abs(t_log - t))) if t_log.size else 0
+            y = [main_curve[j]] if t_log.size else []
+            return go.Scatter(x=[t] if t_log.size else [], y=y, mode="markers", name=f"t = {t:.4g} s",
+                              marker={"size": 11, "color": "black"}, showlegend=False)
+
+        fig.add_trace(marker(float(times[0])), row=1, col=2)
+        fig.update_xaxes(title_text="time (s)", row=1, col=2)
+        fig.update_yaxes(title_text="force (N)", row=1, col=2)
+
+    animated = list(range(n_rods)) + ([marker_index] if marker_index is not None else [])
+    fig.frames = [go.Frame(name=f"{k}", traces=animated,
+                           data=rod_traces(int(i)) + ([marker(float(times[k]))] if has_force else []))
+                  for k, i in enumerate(frames)]
+    ext = hi - lo
+    fig.update_scenes(xaxis={"range": [lo[0], hi[0]], "title": "x (m)"},
+                      yaxis={"range": [lo[1], hi[1]], "title": "y (m)"},
+                      zaxis={"range": [lo[2], hi[2]], "title": "z (m)"},
+                      aspectmode="manual", aspectratio=dict(zip("xyz", (ext / ext.max()).tolist(), strict=True)))
+    still = {"mode": "immediate", "frame": {"duration": 0, "redraw": True}, "transition": {"duration": 0}}
+    play = {"frame": {"duration": 80, "redraw": True}, "fromcurrent": True, "transition": {"duration": 0}}
+    fig.update_layout(
+        title=f"{run.name}: {len(frames)} frames, t = {times[0]:.4g} to {times[-1]:.4g} s",
+        width=None, height=640, margin={"l": 10, "r": 10, "t": 60, "b": 10},
+        legend={"x": 0.0, "y": 1.0},
+        updatemenus=[{"type": "buttons", "direction": "left", "showactive": False, "x": 0.0, "y": -0.02,
+                      "xanchor": "left", "yanchor": "top",
+                      "buttons": [{"label": "play", "method": "animate", "args": [None, play]},
+                                  {"label": "pause", "method": "animate", "args": [[None], still]}]}],
+        sliders=[{"active": 0, "x": 0.14, "len": 0.84, "y": 0.0, "currentvalue": {"prefix": "t = ", "suffix": " s"},
+                  "steps": [{"label": f"{t:.4g}", "method": "animate", "args": [[f"{k}"], still]}
+                            for k, t in enumerate(times)]}],
+    )
+    path = Path(out)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.write_html(path, include_plotlyjs=True, full_html=True, auto_play=False)
+    return path
+
+
+def has_display() -> bool:
+    """Whether an interactive window can open: on Linux (and other X11/Wayland systems) a
+    ``DISPLAY`` or ``WAYLAND_DISPLAY``; macOS and Windows always have one."""
+    if sys.platform in ("darwin", "win32"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def show_window(run_dir: str | os.PathLike, *, max_frames: int = 200) -> None:  # pragma: no cover - needs a display
+    """Open an interactive pyvista window on ``run_dir``: the rods as tubes, a slider over time.
+
+    Raises :class:`~knotsim.errors.ConfigError` without a display (use :func:`write_html`), and
+    ImportError naming the ``render`` extra without pyvista.
+    """
+    from knotsim.io.trajectory import read_trajectory
+    from knotsim.viz.tube import tube_mesh
+
+    run = run_directory(run_dir)
+    if not has_display():
+        raise ConfigError("display", "no display to open a window on; write a page instead: "
+                                     f"knotsim view {run} --html view.html")
+    try:
+        import pyvista as pv
+    except ImportError:
+        raise ImportError("knotsim view needs pyvista for its window: pip install 'knotsim[render]' "
+                          "(or write a page with --html FILE and the view extra)") from None
+    with read_trajectory(run / "trajectory.h5", lazy=True) as traj:
+        frames = select_frames(traj.n_frames, max_frames)
+        lines = [traj.centerlines(int(i)) for i in frames]
+        times = np.asarray(traj.time[frames], dtype=float)
+        radii, closed, names = traj.rod_radius.copy(), traj.rod_closed.copy(), list(traj.rod_names)
+
+    def surface(k: int):
+        mesh = tube_mesh(lines[k], radii, closed)
+        faces = np.column_stack([np.full(len(mesh.quads), 4), mesh.quads]).ravel()
+        if mesh.tris.size:
+            faces = np.concatenate([faces, np.column_stack([np.full(len(mesh.tris), 3), mesh.tris]).ravel()])
+        surf = pv.PolyData(mesh.vertices, faces)
+        surf.point_data["rod"] = mesh.vertex_rod
+        return surf
+
+    plotter = pv.Plotter(title=f"knotsim view {run.name}")
+    shown = surface(0)
+    plotter.add_mesh(shown, scalars="rod", cmap=[ROD_COLORS[r % len(ROD_COLORS)] for r in range(len(names))],
+                     show_scalar_bar=False, smooth_shading=True)
+
+    def on_slider(value: float) -> None:
+        k = int(np.argmin(np.abs(times - value)))
+        shown.copy_from(surface(k))
+        plotter.render()
+
+    plotter.add_slider_widget(on_slider, [float(times[0]), float(times[-1])], value=float(times[0]),
+                              title="time (s)")
+    plotter.show()
