@@ -173,3 +173,12 @@ def test_two_rope_bend_outcome_uses_tail_draw_in():
     fm = proto.metrics(fctx, flog)
     assert fm["slip_onset"]["criterion"] == "runaway" and 19.5 <= fm["slip_onset"]["time"] <= 20.5
     assert fm["F_norm_hold"] == pytest.approx(0.02, rel=0.05)
+
+
+def test_contact_and_solver_overrides_may_be_nested_tables():
+    from knotsim.protocols.params import resolve_params
+
+    p = resolve_params({"mu": 0.1, "contact.delta": 5e-4}, {"contact": {"stiffness_scaler": 250.0},
+                                                          "solver": {"max_iterations": 30}})
+    assert p.contact == {"delta": 5e-4, "stiffness_scaler": 250.0}
+    assert p.solver == {"max_iterations": 30}

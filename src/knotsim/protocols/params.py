@@ -31,6 +31,48 @@ COMMON_DEFAULTS: dict[str, Any] = {
     "output_interval": 0.1,   # trajectory frame interval, s
 }
 
+#: Unit and one-line meaning of every protocol parameter (of :data:`COMMON_DEFAULTS` and of each
+#: protocol's ``defaults``; ``tests/protocols/test_protocol_cli.py`` checks that none is missing).
+#: ``"-"``: dimensionless; ``"text"``: a word or name.
+PARAM_INFO: dict[str, tuple[str, str]] = {
+    # common to every protocol
+    "n_nodes": ("-", "nodes per rope (none: the knot drawing's)"),
+    "radius": ("m", "rod radius h (none: the knot drawing's)"),
+    "length": ("m", "rope length L (none: the knot drawing's)"),
+    "youngs_modulus": ("Pa", "Young's modulus E"),
+    "density": ("kg/m^3", "mass density rho"),
+    "poisson_ratio": ("-", "Poisson ratio (shear modulus G = E / (2 (1 + nu)))"),
+    "damping": ("Pa s", "viscosity eta of the viscous force -eta v l_voronoi"),
+    "gravity": ("m/s^2", "gravitational acceleration along -z (0: none)"),
+    "mu": ("-", "Coulomb friction coefficient"),
+    "dt": ("s", "target time step (the stepper halves it on failure and grows it back)"),
+    "duration": ("s", "simulated time (none: the protocol computes it)"),
+    "output_interval": ("s", "time between trajectory frames"),
+    "contact.delta": ("m", "contact distance tolerance of the IMC potential"),
+    "contact.nu": ("m/s", "slip speed below which friction is smoothed (sticking)"),
+    # pulling
+    "pull_speed": ("m/s", "speed of each pulled end"),
+    "e_final": ("m", "overhand pull: stop when the shortening e = L - end-to-end reaches this"),
+    "mean_window": ("s", "single-rod bend: length of the measured pull (mean and peak window)"),
+    "hold_time": ("s", "single-rod bend: how long the held node stays held (none: the whole run)"),
+    "hold_nodes": ("-", "single-rod bend: consecutive nodes held, centred on the knot's hold hint (odd)"),
+    "pre_pull": ("m", "single-rod bend: end separation added before the measured pull (0: none)"),
+    "pre_pull_speed": ("m/s", "single-rod bend: speed per end during the pre-pull (none: pull_speed)"),
+    "end_twist": ("text", "single-rod bend: 'clamped' (pulled end edges keep their angle) or 'free'"),
+    "transient": ("s", "start-up time left out of the peak force and the slip detection"),
+    "loose_factor": ("-", "single-rod bend: 'loose' when the rope in the knot exceeds this x ideal ropelength"),
+    "mode": ("text", "two-rope bend: 'displacement' (pull at pull_speed) or 'force' (ramp at force_rate)"),
+    "held_end": ("text", "two-rope bend: held end as ROPE:NODE (none: the knot's hint)"),
+    "pulled_end": ("text", "two-rope bend: pulled end as ROPE:NODE (none: the knot's hint)"),
+    "pull_length": ("m", "two-rope bend, displacement mode: distance pulled when no duration is given"),
+    "pre_tighten": ("m", "two-rope bend: distance each of the four ends moves outwards first (0: none)"),
+    "pre_tighten_speed": ("m/s", "two-rope bend: speed per end during the cinching stage"),
+    "force_rate": ("N/s", "two-rope bend, force mode: growth rate of the applied force"),
+    "runaway_speed": ("m/s", "two-rope bend, force mode: pulled end faster than this = slipping"),
+    "slip_draw_in_rate": ("-", "two-rope bend: tails drawn in faster than this x pull_speed = slipping"),
+    "slip_hold": ("s", "two-rope bend: how long the fast draw-in must last to count as a slip"),
+}
+
 _CONTACT_KEYS = None
 _SOLVER_KEYS = None
 
@@ -127,6 +169,18 @@ class Params:
         return d
 
 
+def _flatten_tables(layer: Mapping[str, Any]) -> dict[str, Any]:
+    """``{"contact": {"delta": 1e-3}}`` -> ``{"contact.delta": 1e-3}`` (the ``contact`` and ``solver``
+    tables may be given nested, as a TOML table, or as dotted keys)."""
+    out: dict[str, Any] = {}
+    for key, val in layer.items():
+        if key in ("contact", "solver") and isinstance(val, Mapping):
+            out.update({f"{key}.{k}": v for k, v in val.items()})
+        else:
+            out[key] = val
+    return out
+
+
 def resolve_params(defaults: Mapping[str, Any], *layers: Mapping[str, Any] | None) -> Params:
     """Apply override layers (dotted keys) on top of ``defaults`` (a flat mapping whose keys may
     include ``contact.*`` / ``solver.*`` entries). Unknown keys raise :class:`ConfigError` naming
@@ -142,7 +196,7 @@ def resolve_params(defaults: Mapping[str, Any], *layers: Mapping[str, Any] | Non
         else:
             values[k] = v
     for layer in layers:
-        for key, val in (layer or {}).items():
+        for key, val in _flatten_tables(layer or {}).items():
             if not isinstance(key, str):
                 raise ConfigError(str(key), "override keys must be strings")
             if key in ("contact.mu",):
@@ -165,3 +219,34 @@ def resolve_params(defaults: Mapping[str, Any], *layers: Mapping[str, Any] | Non
                 raise ConfigError(key, f"unknown parameter; known: {', '.join(sorted(values))}, "
                                        "contact.<setting>, solver.<setting>")
     return Params(values, contact, solver)
+
+
+def protocol_defaults(proto) -> dict[str, Any]:
+    """:data:`COMMON_DEFAULTS` updated with ``proto.defaults`` (flat, may hold ``contact.*`` keys)."""
+    d = dict(COMMON_DEFAULTS)
+    d.update(proto.defaults)
+    return d
+
+
+def describe_params(proto) -> list[tuple[str, Any, str, str]]:
+    """``(key, default, unit, meaning)`` of every parameter of protocol ``proto`` (a
+    :class:`~knotsim.protocols.base.LoadingProtocol`), common ones first, in the order of the
+    defaults tables; the meaning comes from :data:`PARAM_INFO` (``KeyError`` if a key has none)."""
+    return [(k, v, *PARAM_INFO[k]) for k, v in protocol_defaults(proto).items()]
+
+
+def settings_defaults() -> dict[str, Any]:
+    """Defaults of the ``contact.<setting>`` and ``solver.<setting>`` keys (from the contact and
+    solver settings dataclasses; ``contact.mu`` and ``solver.dt`` are the ``mu`` and ``dt``
+    parameters)."""
+    from dataclasses import MISSING
+
+    from knotsim.contact.model import ContactSettings
+    from knotsim.solver.stepper import SolverSettings
+
+    out: dict[str, Any] = {}
+    for prefix, cls, skip in (("contact.", ContactSettings, "mu"), ("solver.", SolverSettings, "dt")):
+        for f in fields(cls):
+            if f.name != skip and f.default is not MISSING:
+                out[prefix + f.name] = f.default
+    return out
