@@ -3,15 +3,15 @@
 >>> df = run_study("examples/studies/bends.toml", "studies/bends", workers=2)
 >>> df = run_study("study.toml", "studies/x", scheduler="tcp://10.0.0.1:8786", resume=True)
 
-Local runs use a :class:`concurrent.futures.ProcessPoolExecutor` with ``spawn``ed worker
-processes, each running one case at a time with one BLAS thread; the workers die with the study
-process. On a Dask cluster every worker must be able to import knotsim and to write into
+Local runs use a :class:`knotsim.study.pool.CasePool` of ``spawn``ed worker processes, each
+running one case at a time with one BLAS thread; the workers die with the study process, and a
+worker that dies (``kill -9``, out of memory, segfault) costs only the case it was running
+(recorded ``worker lost``; a fresh worker takes the next cases). On a Dask cluster every worker must be able to import knotsim and to write into
 ``STUDY_DIR`` (a shared file system).
 """
 
 from __future__ import annotations
 
-import multiprocessing
 import os
 import time
 import uuid
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 from knotsim.errors import ConfigError
 from knotsim.study.spec import Case, Study, load_study_spec
-from knotsim.study.store import StudyStore
+from knotsim.study.store import StudyLock, StudyStore
 
 __all__ = ["Progress", "plan_study", "run_study"]
 
@@ -106,12 +106,30 @@ def run_study(
         Extra information recorded in this session's entry of ``provenance.json``.
 
     A failing case (any exception) is recorded with outcome ``"failed"``, its error and traceback;
-    the other cases go on. A worker process that dies takes its case with it: the case is
-    reported failed in the table but has no case directory, so ``resume`` runs it again.
+    the other cases go on. A worker process that dies takes only its case with it: the case is
+    reported failed (``worker lost: ...``) in the table but has no case directory, so ``resume``
+    runs it again. With ``resume``, case directories whose ``result.json`` is missing, truncated
+    or not a case record are discarded and run again (listed under ``corrupt_cases_rerun`` in the
+    session's provenance entry). The session holds ``STUDY_DIR/.lock``
+    (:class:`~knotsim.study.store.StudyLock`): a second session on the same directory is refused.
     """
     spec, cases, reused, todo = plan_study(study, study_dir, resume=resume, retry_failed=retry_failed)
+    with StudyLock(study_dir):
+        # planned again under the lock: another session may have finished cases meanwhile
+        spec, cases, reused, todo = plan_study(spec, study_dir, resume=resume, retry_failed=retry_failed)
+        return _run_locked(spec, cases, reused, todo, study_dir, workers, scheduler, resume, retry_failed,
+                           max_cases_per_worker, progress, session)
+
+
+def _run_locked(spec, cases, reused, todo, study_dir, workers, scheduler, resume, retry_failed,
+                max_cases_per_worker, progress, session):
     store = StudyStore(study_dir)
     store.cleanup()
+    corrupt = store.corrupt() if resume else {}
+    ids = {c.case_id for c in cases}
+    for cid in corrupt:  # truncated or invalid result.json: run the case again
+        if cid in ids:
+            store.discard(cid)
     if retry_failed:
         todo_ids = {c.case_id for c in todo}
         for cid, rec in store.finished().items():
@@ -119,7 +137,8 @@ def run_study(
                 store.discard(cid)
     backend = "dask" if scheduler is not None else "local"
     store.prepare(spec, session={"backend": backend, "scheduler": _address(scheduler), "workers": workers,
-                                 "resume": resume, "cases": len(cases), "to_run": len(todo), **(session or {})})
+                                 "resume": resume, "cases": len(cases), "to_run": len(todo),
+                                 **({"corrupt_cases_rerun": corrupt} if corrupt else {}), **(session or {})})
     records = dict(reused)
     store.write_results(cases, records)
     state = Progress(total=len(cases), todo=len(todo), reused=len(reused))
@@ -201,30 +220,16 @@ class _Loop:
 
 
 def _run_local(todo, store, spec, records, state, cases, workers, max_cases_per_worker, progress, t0):
-    from concurrent.futures import ProcessPoolExecutor
-
-    from knotsim.study._worker import execute_case, init_worker
+    from knotsim.study._worker import execute_case
+    from knotsim.study.pool import CasePool
 
     n = workers if workers is not None else (os.cpu_count() or 1)
     if not isinstance(n, int) or n < 1:
         raise ConfigError("workers", f"must be a positive integer, got {workers!r}")
     n = min(n, len(todo))
-    kw = {}
-    if max_cases_per_worker is not None:
-        kw["max_tasks_per_child"] = int(max_cases_per_worker)
-    ctx = multiprocessing.get_context("spawn")
-    env = {v: os.environ.get(v) for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
-    for v in env:  # inherited by the spawned workers before they import numpy
-        os.environ[v] = "1"
-    try:
-        pool = ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=init_worker,
-                                   initargs=(os.getpid(),), **kw)
-    finally:
-        for v, old in env.items():
-            if old is None:
-                os.environ.pop(v, None)
-            else:
-                os.environ[v] = old
+    if max_cases_per_worker is not None and (not isinstance(max_cases_per_worker, int) or max_cases_per_worker < 1):
+        raise ConfigError("max_cases_per_worker", f"must be a positive integer, got {max_cases_per_worker!r}")
+    pool = CasePool(n, max_cases_per_worker)
     loop = _Loop(store, cases, records, state, progress, t0, lambda: n)
     try:
         futures = {pool.submit(execute_case, _payload(c), str(store.path.resolve()), str(spec.base_dir)): c

@@ -11,6 +11,7 @@ Layout of ``STUDY_DIR``::
         error.txt       traceback of a failed case
         ...             the case's own outputs (trajectory.h5, log.parquet, run.json, ...)
     cases/.tmp-*        cases being run (never read as results)
+    .lock               held by the session running the study (:class:`StudyLock`)
 
 A case directory is written under a temporary name and renamed when ``result.json`` is in it, so a
 directory ``cases/<case_id>`` is always complete; killing a study (even with SIGKILL) loses only
@@ -40,11 +41,12 @@ from pathlib import Path
 from knotsim._util.jsonio import json_safe, read_json, write_json
 from knotsim._util.toml import write_toml
 
-__all__ = ["StudyStore", "load_study", "provenance_info", "run_case_atomically"]
+__all__ = ["StudyLock", "StudyStore", "load_study", "provenance_info", "record_problem", "run_case_atomically"]
 
 CASES = "cases"
 TMP_PREFIX = ".tmp-"
 RECORD = "result.json"
+LOCK = ".lock"
 _RESERVED = ("case_id", "kind", "repeat", "outcome", "error", "wall_time", "traceback", "case_dir")
 _DEPENDENCIES = ("numpy", "scipy", "numba", "h5py", "pandas", "pyarrow", "click", "matplotlib", "pillow",
                  "dask", "distributed")
@@ -119,18 +121,47 @@ def run_case_atomically(case: dict, study_dir: str | os.PathLike, base_dir: str 
     except OSError:
         done = _read_summary(final)
         if done is None:
-            raise
-        shutil.rmtree(tmp, ignore_errors=True)
-        return done
+            # a corrupt directory of this case (no valid record): replace it by the new one
+            StudyStore(study_dir).discard(case["case_id"])
+            os.rename(tmp, final)
+        else:
+            shutil.rmtree(tmp, ignore_errors=True)
+            return done
     _fsync_dir(cases_dir)
     return json_safe(record)  # what result.json holds
 
 
+_RECORD_KEYS = ("case_id", "outcome", "metrics")
+
+
 def _read_summary(case_dir: Path) -> dict | None:
+    """The record in ``case_dir``, or ``None`` when there is none or it is not a valid record (a
+    truncated or empty file, a JSON value that is not a record: see :func:`record_problem`)."""
     try:
-        return read_json(case_dir / RECORD)
-    except (FileNotFoundError, NotADirectoryError, json.JSONDecodeError):
+        rec = read_json(case_dir / RECORD)
+    except (FileNotFoundError, NotADirectoryError, json.JSONDecodeError, UnicodeDecodeError):
         return None
+    except OSError:
+        return None
+    return rec if record_problem(rec, case_dir.name) is None else None
+
+
+def record_problem(rec, case_id: str | None = None) -> str | None:
+    """Why ``rec`` (a parsed ``result.json``) is not a valid case record, or ``None``: it must be a
+    table with ``case_id`` (equal to ``case_id`` when given), ``outcome`` ``"completed"`` or
+    ``"failed"`` and a ``metrics`` table."""
+    if not isinstance(rec, dict):
+        return f"not a table but {type(rec).__name__}"
+    missing = [k for k in _RECORD_KEYS if k not in rec]
+    if missing:
+        return f"missing {', '.join(missing)}"
+    if case_id is not None and rec["case_id"] != case_id:
+        return f"case_id {rec['case_id']!r} does not match its directory {case_id!r}"
+    if rec["outcome"] not in ("completed", "failed"):
+        return f"outcome {rec['outcome']!r} is neither 'completed' nor 'failed'"
+    if not isinstance(rec["metrics"], dict):
+        return "metrics is not a table"
+    return None
 
 
 # ------------------------------------------------------------------------------------------ provenance
@@ -223,6 +254,31 @@ class StudyStore:
                     out[d.name] = rec
         return out
 
+    def corrupt(self) -> dict[str, str]:
+        """Case directories with a missing or invalid ``result.json`` (a write cut short, a file
+        edited by hand): ``{case_id: problem}``. :func:`~knotsim.study.runner.run_study` with
+        ``resume`` discards them and runs those cases again."""
+        out = {}
+        if self.cases_dir.is_dir():
+            for d in self.cases_dir.iterdir():
+                if d.name.startswith(".") or not d.is_dir():
+                    continue
+                try:
+                    rec = read_json(d / RECORD)
+                except FileNotFoundError:
+                    out[d.name] = f"no {RECORD}"
+                    continue
+                except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+                    out[d.name] = f"{RECORD} is not valid JSON ({exc})"
+                    continue
+                except OSError as exc:
+                    out[d.name] = f"{RECORD} cannot be read ({exc})"
+                    continue
+                problem = record_problem(rec, d.name)
+                if problem is not None:
+                    out[d.name] = f"{RECORD} is not a case record: {problem}"
+        return out
+
     def discard(self, case_id: str) -> None:
         """Remove a finished case (atomically: renamed away first, then deleted)."""
         d = self.case_dir(case_id)
@@ -301,6 +357,63 @@ class StudyStore:
         df.to_parquet(tmp, index=False)
         os.replace(tmp, self.results_file)
         return pd.read_parquet(self.results_file)
+
+
+class StudyLock:
+    """Exclusive lock on a study directory, held by the session running it (``STUDY_DIR/.lock``,
+    an advisory ``flock``: released by the kernel when the process dies, even by SIGKILL; on NFS
+    Linux maps it to a lock over the network). A second session on the same directory is refused
+    with a :class:`~knotsim.errors.ConfigError` naming the host and process that hold it: two
+    resumes at once would both run every missing case. Where ``fcntl`` is missing (Windows) no
+    lock is taken."""
+
+    def __init__(self, study_dir: str | os.PathLike):
+        self.path = Path(study_dir) / LOCK
+        self._fd: int | None = None
+
+    def acquire(self) -> StudyLock:
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - not on POSIX
+            return self
+        from knotsim.errors import ConfigError
+
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            try:
+                holder = os.read(fd, 4096).decode(errors="replace").strip() or "unknown process"
+            finally:
+                os.close(fd)
+            raise ConfigError("study_dir", f"{str(self.path.parent)!r} is being run by another session "
+                              f"({holder}); wait until it has finished (two sessions would both run "
+                              f"every missing case), or use another directory") from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"host {socket.gethostname()}, pid {os.getpid()}, since "
+                     f"{time.strftime('%Y-%m-%dT%H:%M:%S%z')}\n".encode())
+        self._fd = fd
+        return self
+
+    def release(self) -> None:
+        """Release the lock (the file stays: removing it would let a third session lock a new file
+        while a second one still holds the old)."""
+        if self._fd is None:
+            return
+        import fcntl
+
+        try:
+            fcntl.flock(self._fd, fcntl.LOCK_UN)
+        finally:
+            os.close(self._fd)
+            self._fd = None
+
+    def __enter__(self) -> StudyLock:
+        return self.acquire()
+
+    def __exit__(self, *exc) -> None:
+        self.release()
 
 
 def _pid_alive(pid: int) -> bool:
