@@ -1,6 +1,6 @@
 """Reading a whole run file: ``load_config`` checks every table and returns a :class:`RunConfig`.
 
-Top-level tables: ``[[rods]]`` (required), ``[model]``, ``[[bc]]``, ``[contact]``, ``[solver]``,
+Top-level tables: ``[[rods]]`` (required), ``[model]``, ``[[bc]]``, ``[contact]``, ``[[obstacles]]``, ``[solver]``,
 ``[run]`` (``duration`` required unless ``[[stages]]`` give it), ``[[stages]]``, and the optional
 ``description`` string and ``[provenance]`` table (free-form, recorded, never read: who wrote the
 file and from what, e.g. the protocol and parameters of ``knotsim pull --save-config``).
@@ -46,7 +46,7 @@ from knotsim.solver.stepper import SolverSettings
 
 __all__ = ["RunConfig", "build_simulation", "contact_interactions", "load_config"]
 
-_TOP_KEYS = ("description", "rods", "model", "bc", "solver", "run", "contact", "stages", "provenance")
+_TOP_KEYS = ("description", "rods", "model", "bc", "solver", "run", "contact", "stages", "provenance", "obstacles")
 _MODEL_KEYS = ("gravity", "damping")
 _RUN_KEYS = ("duration", "output_interval")
 _STAGE_KEYS = ("name", "duration", "bc", "release")
@@ -77,6 +77,12 @@ class RunConfig:
     contact: dict | None = None
     base_dir: Path = field(default_factory=Path.cwd)
     stages: list[tuple[str, float, float]] = field(default_factory=list)
+    #: ``build(model) -> [Obstacle, ...]`` from the ``[[obstacles]]`` tables, or ``None``
+    obstacles_builder: Callable | None = None
+
+    def build_obstacles(self) -> list:
+        """Fresh obstacles (:mod:`knotsim.contact.obstacles`) of the ``[[obstacles]]`` tables."""
+        return self.obstacles_builder(self.model) if self.obstacles_builder is not None else []
 
     def build_bcs(self) -> BoundaryConditions:
         """A fresh :class:`~knotsim.bc.BoundaryConditions` for :attr:`model`."""
@@ -269,8 +275,19 @@ def load_config(source, *, base_dir=None, duration: float | None = None) -> RunC
     if contact is not None:
         as_table(contact, "contact")
 
+    obstacles = None
+    if "obstacles" in raw:
+        from knotsim.io.config.obstacles import obstacles_builder
+
+        obstacles = obstacles_builder(raw["obstacles"])
+        obstacles(model)  # check geometry, rods and motions now
+        clash = sorted(set(obstacles.names) & {s.name for s in specs})
+        if clash:
+            raise ConfigError("obstacles", f"obstacle name {clash[0]!r} is also a [[bc]] name (their log columns "
+                                           f"would clash); rename one")
+
     return RunConfig(model=model, bcs_builder=builder, solver=solver, duration=dur, output_interval=interval,
-                     raw=raw, contact=contact, base_dir=bdir, stages=windows)
+                     raw=raw, contact=contact, base_dir=bdir, stages=windows, obstacles_builder=obstacles)
 
 
 def build_simulation(config):
@@ -280,7 +297,7 @@ def build_simulation(config):
 
     if not isinstance(config, RunConfig):
         config = load_config(config)
-    interactions = contact_interactions(config.model, config.contact)
+    interactions = contact_interactions(config.model, config.contact) + config.build_obstacles()
     sim = Simulation(config.model, config.build_bcs(), dataclasses.replace(config.solver),
                      interactions=interactions)
     sim.config = copy.deepcopy(config.raw)
