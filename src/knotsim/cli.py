@@ -2,11 +2,13 @@
 
 ::
 
-    knotsim run CONFIG.toml -o OUTDIR [--duration S] [--quiet]
-    knotsim run [CONFIG.toml] --from RUN_DIR -o OUTDIR [--duration S]
+    knotsim run CONFIG.toml [-o OUTDIR] [--overwrite] [--duration S] [--quiet]
+    knotsim run [CONFIG.toml] --from RUN_DIR [-o OUTDIR] [--duration S]
     knotsim pull KNOT | --geometry PATH -o OUTDIR [--protocol P] [--set K=V] [--quick] [--save-config F]
     knotsim tie SEQUENCE -o OUTDIR | --list
     knotsim validate [CASE ...] [--quick] [--json-only]
+    knotsim warmup [--serial]
+    knotsim plot RUN_DIR [-o FILE]
     knotsim export-vtk RUN_DIR -o DIR [--every N] [--ascii]
     knotsim render RUN_DIR [--frames last|first|all|I,J,..] [-o DIR] [--view iso|top|front|ELEV,AZIM]
     knotsim --version
@@ -35,6 +37,7 @@ import knotsim
 from knotsim._cli_errors import EXIT_BAD_INPUT, EXIT_FAILED_CHECKS
 from knotsim._cli_errors import error as _error
 from knotsim._cli_errors import exit_codes as _exit_codes
+from knotsim._cli_output import OUTPUT_DIR, announce_compile, default_dir, prepare_output
 from knotsim.errors import SimulationError
 
 
@@ -47,15 +50,18 @@ def main():
 # ------------------------------------------------------------------------------------------ run
 @main.command()
 @click.argument("config", required=False, type=click.Path(exists=True, dir_okay=False, path_type=Path))
-@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path),
-              help="Output directory (trajectory.h5, log.parquet, run.json, run.toml, checkpoint.npz).")
+@click.option("-o", "--output", "outdir", type=OUTPUT_DIR, default=None,
+              help="Output directory (trajectory.h5, log.parquet, run.json, run.toml, checkpoint.npz; default "
+                   "runs/<CONFIG name>, or runs/<RUN_DIR name>-continued).")
+@click.option("--overwrite", is_flag=True, help="Replace knotsim's files in a non-empty output directory.")
 @click.option("--from", "from_dir", type=click.Path(exists=True, file_okay=False, path_type=Path), default=None,
               help="Continue the run in this output directory from its checkpoint (with CONFIG: under the new "
                    "boundary conditions, contact and solver settings of CONFIG).")
 @click.option("--duration", type=float, default=None, help="Simulated time in s (overrides run.duration).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar and no summary.")
 @_exit_codes
-def run(config: Path | None, outdir: Path, from_dir: Path | None, duration: float | None, quiet: bool):
+def run(config: Path | None, outdir: Path | None, overwrite: bool, from_dir: Path | None, duration: float | None,
+        quiet: bool):
     """Run the simulation described by CONFIG (a run file, see docs/run-files.md), or continue --from DIR."""
     from knotsim.errors import ConfigError
     from knotsim.run import RunSpec, build_run
@@ -66,7 +72,13 @@ def run(config: Path | None, outdir: Path, from_dir: Path | None, duration: floa
         config = from_dir / "run.toml"
         if not config.is_file():
             raise ConfigError("from", f"{str(from_dir)!r} has no run.toml; give the run file as CONFIG")
-    sim, cfg = build_run(RunSpec.load(config), duration=duration, continue_from=from_dir)
+    if from_dir is not None and outdir is not None and outdir.resolve() == from_dir.resolve():
+        raise ConfigError("output", f"continue into a new directory: -o {outdir} is the --from run itself")
+    default = default_dir(f"{from_dir.name}-continued") if from_dir is not None else default_dir(config.stem)
+    spec = RunSpec.load(config)
+    outdir = prepare_output(outdir, default, overwrite)
+    announce_compile(contact=bool(spec.data.get("contact")), topology=False)
+    sim, cfg = build_run(spec, duration=duration, continue_from=from_dir)
     wall0 = time.perf_counter()
     try:
         log = sim.run(cfg.duration, output_dir=outdir, output_interval=cfg.output_interval,
@@ -187,7 +199,39 @@ def validate(cases: tuple[str, ...], quick: bool, json_only: bool):
         raise click.exceptions.Exit(EXIT_FAILED_CHECKS)
 
 
+# ------------------------------------------------------------------------------------------ warmup
+@main.command()
+@click.option("--serial", is_flag=True, help="Compile in this process only (default: two processes).")
+@_exit_codes
+def warmup(serial: bool):
+    """Compile every numerical kernel now (numba, cached for later runs) and report the time.
+
+    The first run of a command would otherwise start with this (about a minute on 2 cores)."""
+    from knotsim._warmup import kernels_cached, warm_up
+
+    was = kernels_cached()
+    click.echo("compiling the numerical kernels (a small contact run)" + ("" if serial else ", 2 processes")
+               + ("; they are cached already, this checks and loads them" if was else "") + " ...", err=True)
+    times = warm_up(parallel=not serial)
+    click.echo(f"kernels ready in {times['total']:.1f} s (elastic, solver and topology {times['core']:.1f} s, "
+               f"contact {times['contact']:.1f} s{' in parallel' if not serial else ''}, "
+               f"a few steps {times['run']:.1f} s); cached: {'yes' if kernels_cached() else 'NO'}")
+
+
 # ------------------------------------------------------------------------------------------ post-processing
+@main.command()
+@click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("-o", "--output", "out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Figure file (PNG, or any format matplotlib writes; default RUN_DIR/force.png).")
+@_exit_codes
+def plot(run_dir: Path, out: Path | None):
+    """Plot the pull force of RUN_DIR against time (and against the end separation or shortening),
+    with the protocol's window, peak and slip onset marked."""
+    from knotsim.viz.plot import plot_run
+
+    click.echo(str(plot_run(run_dir, out)))
+
+
 @main.command("export-vtk")
 @click.argument("run_dir", type=click.Path(exists=True, path_type=Path))
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path),

@@ -16,9 +16,19 @@ contact statistics) next to ``trajectory.h5`` / ``log.parquet`` / ``run.json`` w
 given. Metrics are pure functions of the log: :mod:`knotsim.protocols.metrics`.
 """
 
-from knotsim.protocols.base import LoadingProtocol, RunContext, build_protocol_run, run_protocol
-from knotsim.protocols.params import COMMON_DEFAULTS, parse_assignments, resolve_params
-from knotsim.protocols.registry import default_protocol, get_protocol, protocols
+import importlib
+
+# Names load on first use (PEP 562), so that ``knotsim.protocols.cli`` (imported by ``knotsim --help``)
+# does not pull in pandas, scipy and the protocol modules.
+_LAZY = {"LoadingProtocol": "base", "RunContext": "base", "build_protocol_run": "base", "run_protocol": "base",
+         "COMMON_DEFAULTS": "params", "parse_assignments": "params", "resolve_params": "params",
+         "default_protocol": "registry", "get_protocol": "registry", "protocols": "registry"}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        return getattr(importlib.import_module(f"knotsim.protocols.{_LAZY[name]}"), name)
+    raise AttributeError(f"module 'knotsim.protocols' has no attribute {name!r}")
 
 __all__ = [
     "COMMON_DEFAULTS",

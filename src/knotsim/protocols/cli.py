@@ -2,8 +2,15 @@
 :mod:`knotsim.cli` with ``main.add_command``)::
 
     knotsim knots
-    knotsim pull KNOT | --geometry PATH [--protocol P] [--set key=value ...] -o OUT [--quick] [--save-config F]
-    knotsim tie SEQUENCE -o OUT | --list
+    knotsim pull KNOT | --geometry PATH [--protocol P] [--set key=value ...] [-o OUT] [--overwrite] [--quick]
+                 [--save-config F] [--no-figures]
+    knotsim pull [KNOT] [--protocol P] --show-params
+    knotsim tie SEQUENCE [-o OUT] [--overwrite] | --list
+
+Without ``-o`` the output goes to ``runs/<knot>-<protocol>`` (``runs/tie-<sequence>``); a directory
+that is not empty is refused unless ``--overwrite`` (see :mod:`knotsim._cli_output`). ``pull``
+writes ``force.png`` (:func:`knotsim.viz.plot.plot_run`) and renders of the first and last frames
+(``render/``) unless ``--no-figures``.
 
 Exit codes as for the other commands: 0 success, 2 bad input (unknown knot, protocol or parameter),
 3 the simulation stopped early (the summary is still written and printed).
@@ -18,6 +25,7 @@ import click
 
 from knotsim._cli_errors import EXIT_SIMULATION
 from knotsim._cli_errors import exit_codes as _exit_codes
+from knotsim._cli_output import OUTPUT_DIR, announce_compile, default_dir, prepare_output
 
 
 @click.command()
@@ -59,6 +67,55 @@ def _print_summary(s: dict, proto: str, quick: bool, outdir: Path) -> None:
     click.echo(f"  summary: {outdir / 'summary.json'}")
 
 
+def _show_params(protocol: str) -> None:
+    """The parameter table of ``protocol`` (key, default, unit, meaning) and its --quick changes."""
+    from knotsim.protocols.params import describe_params, settings_defaults
+    from knotsim.protocols.registry import get_protocol
+
+    proto = get_protocol(protocol)
+    rows = [(k, "none" if v is None else _fmt(v), u, m) for k, v, u, m in describe_params(proto)]
+    w = [max(len(r[i]) for r in rows) for i in range(3)]
+    click.echo(f"{proto.name}: {proto.description}")
+    click.echo(f"parameters (--set KEY=VALUE; none = from the knot drawing or computed), default knot "
+               f"{proto.default_knot}:")
+    for k, v, u, m in rows:
+        click.echo(f"  {k:<{w[0]}}  {v:<{w[1]}}  {u:<{w[2]}}  {m}")
+    quick = ", ".join(f"{k} = {_fmt(v)}" for k, v in proto.quick.items())
+    click.echo(f"--quick sets: {quick or 'nothing'}")
+    extra = ", ".join(f"{k} = {'none' if v is None else _fmt(v)}" for k, v in settings_defaults().items()
+                      if k not in dict.fromkeys(r[0] for r in rows))
+    click.echo(f"also accepted (contact and solver settings, see docs/run-files.md): {extra}")
+
+
+def _quick_notes(protocol: str, overrides: dict, geometry) -> list[str]:
+    """What --quick changes: ``--quick: KEY = VALUE (default D)``, or that a --set value wins."""
+    from knotsim.protocols.params import protocol_defaults
+    from knotsim.protocols.registry import get_protocol
+
+    proto = get_protocol(protocol)
+    defaults = protocol_defaults(proto)
+    notes = []
+    for k, v in proto.quick.items():
+        if k in overrides:
+            notes.append(f"--quick: {k} = {_fmt(v)} not applied (--set {k}={_fmt(overrides[k])} wins)")
+        elif geometry is not None and k in ("n_nodes", "length"):
+            continue  # reported by the protocol (the geometry fixes it)
+        else:
+            d = defaults.get(k)
+            notes.append(f"--quick: {k} = {_fmt(v)} (default {'none' if d is None else _fmt(d)})")
+    return notes
+
+
+def _figures(outdir: Path) -> list[Path]:
+    """force.png and renders of the first and last frames (matplotlib, no display needed)."""
+    from knotsim.viz.plot import plot_run
+    from knotsim.viz.render import render_run
+
+    paths = [plot_run(outdir, outdir / "force.png")]
+    paths += render_run(outdir, frames=[0, -1], backend="matplotlib", size=(640, 480))
+    return paths
+
+
 @click.command()
 @click.argument("knot", required=False)
 @click.option("--geometry", type=click.Path(exists=True, path_type=Path), default=None,
@@ -69,24 +126,33 @@ def _print_summary(s: dict, proto: str, quick: bool, outdir: Path) -> None:
                    "that wrote the --geometry run).")
 @click.option("--set", "assignments", multiple=True, metavar="KEY=VALUE",
               help="Override a parameter (repeatable), e.g. --set mu=0.3 --set contact.delta=1e-3.")
-@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False, path_type=Path),
-              help="Output directory (trajectory.h5, log.parquet, run.json, run.toml, checkpoint.npz, summary.json).")
-@click.option("--quick", is_flag=True, help="Coarse and short run (N ~ 80-100, large dt), for a fast look.")
+@click.option("-o", "--output", "outdir", type=OUTPUT_DIR, default=None,
+              help="Output directory (trajectory.h5, log.parquet, run.json, run.toml, checkpoint.npz, summary.json, "
+                   "force.png, render/; default runs/<knot>-<protocol>).")
+@click.option("--overwrite", is_flag=True, help="Replace knotsim's files in a non-empty output directory.")
+@click.option("--quick", is_flag=True, help="Coarse and short run (N ~ 80-100, large dt), for a fast look; "
+                                            "prints what it changes.")
+@click.option("--show-params", is_flag=True, help="List the protocol's parameters (default, unit, meaning) and exit.")
 @click.option("--save-config", "save_config", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Also write the complete run file; `knotsim run FILE -o DIR` replays it.")
+@click.option("--figures/--no-figures", default=True, show_default=True,
+              help="Write force.png and renders of the start and end states into the output directory.")
 @click.option("--progress/--no-progress", default=None, help="Progress bar (default: when on a terminal).")
 @click.option("--json", "as_json", is_flag=True, help="Print the whole summary as JSON.")
 @_exit_codes
-def pull(knot: str | None, geometry: Path | None, protocol: str | None, assignments: tuple[str, ...], outdir: Path,
-         quick: bool, save_config: Path | None, progress: bool | None, as_json: bool):
+def pull(knot: str | None, geometry: Path | None, protocol: str | None, assignments: tuple[str, ...],
+         outdir: Path | None, overwrite: bool, quick: bool, show_params: bool, save_config: Path | None,
+         figures: bool, progress: bool | None, as_json: bool):
     """Measure the strength of KNOT (library name or .toml drawing) or of --geometry with a loading protocol."""
     import sys
 
     from knotsim.errors import ConfigError
-    from knotsim.protocols.base import run_protocol
     from knotsim.protocols.params import parse_assignments
     from knotsim.protocols.registry import default_protocol
 
+    if show_params:
+        _show_params(protocol or (default_protocol(knot) if knot else "overhand-pull"))
+        return
     if (knot is None) == (geometry is None):
         raise ConfigError("knot", "give a library KNOT or --geometry PATH (one of them)")
     overrides = parse_assignments(assignments)
@@ -98,28 +164,41 @@ def pull(knot: str | None, geometry: Path | None, protocol: str | None, assignme
 
             geo = geometry_from_source(str(geometry), radius=1.0)
             protocol = geo.protocol_hint or ("overhand-pull" if len(geo.ropes) == 1 else "two-rope-bend")
+    name = Path(knot).stem if knot is not None else Path(str(geometry)).name
+    outdir = prepare_output(outdir, default_dir(name, protocol), overwrite)
+    if quick:
+        for note in _quick_notes(protocol, overrides, geometry):
+            click.echo(f"note: {note}", err=True)
     if progress is None:
         progress = sys.stderr.isatty()
+    announce_compile(contact=True)
+    from knotsim.protocols.base import run_protocol
+
     s = run_protocol(protocol, knot=knot, out_dir=outdir, overrides=overrides, progress=progress, quick=quick,
                      geometry=str(geometry) if geometry is not None else None, save_config=save_config)
+    drawn = _figures(outdir) if figures and s["n_steps"] else []
     if as_json:
         click.echo(json.dumps(s))
     else:
         _print_summary(s, protocol, quick, outdir)
         if save_config is not None:
             click.echo(f"  run file: {save_config}")
+        if drawn:
+            click.echo(f"  figures: {drawn[0]}, {', '.join(str(p) for p in drawn[1:])}")
     if s["run_status"] != "completed":
         raise click.exceptions.Exit(EXIT_SIMULATION)
 
 
 @click.command()
 @click.argument("sequence", required=False)
-@click.option("-o", "--output", "outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Output directory (trajectory.h5, log.parquet, run.json, run.toml, checkpoint.npz).")
+@click.option("-o", "--output", "outdir", type=OUTPUT_DIR, default=None,
+              help="Output directory (trajectory.h5, log.parquet, run.json, run.toml, checkpoint.npz; "
+                   "default runs/tie-<sequence>).")
+@click.option("--overwrite", is_flag=True, help="Replace knotsim's files in a non-empty output directory.")
 @click.option("--list", "list_", is_flag=True, help="List the shipped tying sequences.")
 @click.option("--progress/--no-progress", default=None, help="Progress bar (default: when on a terminal).")
 @_exit_codes
-def tie(sequence: str | None, outdir: Path | None, list_: bool, progress: bool | None):
+def tie(sequence: str | None, outdir: Path | None, overwrite: bool, list_: bool, progress: bool | None):
     """Tie SEQUENCE (overhand, reef, granny, ...) from a straight rope by moving its ends; print the knot type.
 
     The result can be loaded next: knotsim pull --geometry OUTDIR --protocol PROTOCOL -o DIR2."""
@@ -130,8 +209,10 @@ def tie(sequence: str | None, outdir: Path | None, list_: bool, progress: bool |
         for name in list_tying_sequences():
             click.echo(name)
         return
-    if sequence is None or outdir is None:
-        raise ConfigError("tie", "give a SEQUENCE and -o OUTDIR (or --list)")
+    if sequence is None:
+        raise ConfigError("tie", "give a SEQUENCE (or --list)")
+    outdir = prepare_output(outdir, default_dir("tie", sequence), overwrite)
+    announce_compile(contact=True)
     res = tie_from_straight(sequence, out_dir=outdir, progress=progress)
     verdict = "as intended" if res.ok else f"NOT the intended {' or '.join(res.expected)}"
     click.echo(f"{sequence}: tied a {res.knot_type} ({verdict})")

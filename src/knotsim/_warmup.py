@@ -1,0 +1,161 @@
+"""Compiling the numerical kernels ahead of a run (``knotsim warmup``; the first run of a command).
+
+The kernels are numba ``@njit(cache=True)`` functions: each compiles on its first call and is
+stored in numba's cache (``__pycache__`` next to the source, or ``NUMBA_CACHE_DIR``); later
+processes load it in milliseconds. A cold start of ``knotsim pull overhand_n1 --quick`` spends
+nearly all its time compiling (one specialisation per kernel; measured in ``docs/performance.md``):
+the contact kernels (``contact_evaluate`` with the pair energy and friction, the broad phase)
+about half, the elastic energies, the sparse LU and the knot-diagram kernels the rest.
+
+:func:`kernels_cached` tells, from numba's cache index files of a few kernels that every run of
+that kind compiles, whether a run would start by compiling. :func:`warm_up` compiles the kernels
+of a contact run of a small knot: the contact kernels in a second process while this one compiles
+the elastic, solver and topology kernels (two cores: about half the wall time), so that a run
+afterwards loads everything from the cache. Library code: nothing here prints.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import subprocess
+import sys
+import time
+
+__all__ = ["kernels_cached", "uncached_kernels", "warm_up"]
+
+#: Kernels every run of a kind compiles (module, function): if all are cached, the rest are too.
+SENTINELS: dict[str, tuple[tuple[str, str], ...]] = {
+    "core": (("knotsim.energies.bending", "bending_energy"), ("knotsim.solver._kernels", "implicit_residual")),
+    "contact": (("knotsim.contact.assembly", "contact_evaluate"),
+                ("knotsim.contact.broadphase", "find_candidate_pairs")),
+    "topology": (("knotsim.geometry.planar", "_crossings_kernel"),),
+}
+
+
+def _is_cached(dispatcher) -> bool | None:
+    """Whether numba's cache holds a compiled version of ``dispatcher`` for the current source
+    (``None`` when this numba does not expose its cache)."""
+    cache = getattr(dispatcher, "_cache", None)
+    cache_file = getattr(cache, "_cache_file", None)
+    if cache_file is None or not hasattr(cache_file, "_load_index"):
+        return None
+    try:
+        return bool(cache_file._load_index())  # empty when missing or when the source changed
+    except Exception:  # an unreadable index: numba recompiles, so count it as not cached
+        return False
+
+
+def uncached_kernels(groups=("core", "contact", "topology")) -> list[str]:
+    """Names (``module.function``) of the sentinel kernels of ``groups`` that are not cached."""
+    out = []
+    for g in groups:
+        for module, name in SENTINELS[g]:
+            if _is_cached(getattr(importlib.import_module(module), name)) is False:
+                out.append(f"{module}.{name}")
+    return out
+
+
+def kernels_cached(contact: bool = True, topology: bool = True) -> bool:
+    """Whether a run (with contact and a knot-type check, when asked) will find its kernels
+    compiled in numba's cache."""
+    groups = ["core"] + (["contact"] if contact else []) + (["topology"] if topology else [])
+    return not uncached_kernels(groups)
+
+
+def _small_run_spec(contact: bool, linear_solver: str = "auto"):
+    """A few steps of the quick overhand pull (the kernels' argument types are those of any run)."""
+    from knotsim.protocols.base import build_protocol_run
+    from knotsim.run import RunSpec
+
+    _, _, spec, _ = build_protocol_run("overhand-pull", "overhand_n1", quick=True,
+                                       overrides={"duration": 0.015, "output_interval": 0.005})
+    data = dict(spec.data)
+    if not contact:
+        data.pop("contact", None)
+    data["solver"] = {**data.get("solver", {}), "linear_solver": linear_solver}
+    return RunSpec.from_dict(data)
+
+
+def _warm_core() -> None:
+    """Elastic energies, time stepper, banded and sparse linear solvers, knot-diagram kernels."""
+    from knotsim.knots.topology import analyze
+    from knotsim.run import build_run
+
+    for solver in ("auto", "sparse"):
+        sim, cfg = build_run(_small_run_spec(contact=False, linear_solver=solver))
+        sim.run(cfg.duration, output_dir=None, progress=False)
+    sim, cfg = build_run(_small_run_spec(contact=False))
+    model = cfg.model
+    analyze([model.rod_positions(sim.state.q, r) for r in range(model.n_rods)], None)
+
+
+def _warm_contact() -> None:
+    """Broad phase, pair energy, friction and the contact checks, on the small knot (no time step,
+    so that a second process running this does not compile the stepper's kernels too)."""
+    import numpy as np
+
+    from knotsim.run import build_run
+
+    spec = _small_run_spec(contact=True)
+    dt = float(spec.data["solver"]["dt"])
+    sim, _ = build_run(spec)
+    q = sim.state.q
+    for inter in sim.stepper.interactions:
+        inter.begin_step(sim.state, dt)
+        inter.evaluate(q, q.copy(), dt, np.zeros_like(q), True)
+        inter.check(q)
+        inter.stats()
+        inter.node_forces()
+
+
+def _warm_run() -> None:
+    """A few steps of the small contact run: whatever the parts left (mostly loaded from the cache)."""
+    from knotsim.run import build_run
+
+    sim, cfg = build_run(_small_run_spec(contact=True))
+    sim.run(cfg.duration, output_dir=None, progress=False)
+
+
+_PARTS = {"core": _warm_core, "contact": _warm_contact}
+
+
+def warm_up(parallel: bool = True) -> dict[str, float]:
+    """Compile every kernel a contact run needs; returns wall times (s): ``core``, ``contact``
+    (measured in the process that compiled it), ``run`` (a few steps of the small contact run,
+    which compile what is left) and ``total``. With ``parallel`` the contact part
+    compiles in a second Python process at the same time (falling back to this process if that
+    one fails); the compiled code reaches this process through numba's cache."""
+    t0 = time.perf_counter()
+    times: dict[str, float] = {}
+    child = None
+    if parallel:
+        env = dict(os.environ, OMP_NUM_THREADS=os.environ.get("OMP_NUM_THREADS", "1"),
+                   OPENBLAS_NUM_THREADS=os.environ.get("OPENBLAS_NUM_THREADS", "1"))
+        child = subprocess.Popen([sys.executable, "-m", "knotsim._warmup", "contact"], env=env,
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t = time.perf_counter()
+    _warm_core()
+    times["core"] = time.perf_counter() - t
+    if child is not None:
+        out, _ = child.communicate()
+        if child.returncode == 0 and out.strip():
+            times["contact"] = float(out.strip().splitlines()[-1])
+            child = True
+        else:
+            child = None
+    if child is None:  # serial, or the second process failed
+        t = time.perf_counter()
+        _warm_contact()
+        times["contact"] = time.perf_counter() - t
+    t = time.perf_counter()
+    _warm_run()
+    times["run"] = time.perf_counter() - t
+    times["total"] = time.perf_counter() - t0
+    return times
+
+
+if __name__ == "__main__":  # python -m knotsim._warmup core|contact: prints the part's wall time (s)
+    _t = time.perf_counter()
+    _PARTS[sys.argv[1]]()
+    sys.stdout.write(f"{time.perf_counter() - _t:.3f}\n")

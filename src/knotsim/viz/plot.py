@@ -1,0 +1,201 @@
+"""Force figures of a protocol run (matplotlib, Agg; no display needed).
+
+:func:`plot_run` reads a run directory written by :func:`knotsim.protocols.run_protocol`
+(``knotsim pull``): ``log.parquet`` (one row per step: ``time`` in s, the pull force ``F`` in N and
+``F_norm = F h²/EI``, and the protocol's geometry columns) and ``summary.json`` (protocol,
+parameters, metrics). It draws
+
+- the force against time, with the protocol's measuring window shaded (single-rod bend: the mean
+  window ``[t_pre, t_pre + mean_window]``; two-rope bend: after the start-up ``transient``), the
+  peak of the force in that window (a dot) and the slip onset or force drop (a dashed vertical
+  line at its time, the running-maximum force marked);
+- when the protocol logs one, the force against the end-to-end geometry: the shortening ``e``
+  (m, overhand pull), the end-to-end distance (m, single-rod bend) or the pulled-end displacement
+  ``u_pull`` (m, two-rope bend), with the same peak and onset marked and, for the overhand pull,
+  the read-off points ``F h²/EI`` at ``e = 0.4 ... 0.25 m``.
+
+Metric times in ``summary.json`` count from the end of a pre-tightening stage
+(``pre_pull_time`` / ``pre_tighten_time``); the figure uses the run's time throughout.
+A log without a force column (a plain ``knotsim run``) gets its reaction forces ``<group>_fx/fy/fz``
+as ``|F|`` (N) against time.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from knotsim.errors import ConfigError
+
+__all__ = ["plot_run"]
+
+FIGSIZE_ONE = (6.4, 4.0)  # in
+FIGSIZE_TWO = (11.0, 4.0)  # in
+DPI = 100
+
+#: Geometry column plotted against (first found), with its axis label.
+_X_COLUMNS = (("e", "shortening e = L - end-to-end (m)"), ("end_to_end", "end-to-end distance (m)"),
+              ("u_pull", "pulled-end displacement u (m)"))
+
+
+def _read_summary(run: Path) -> dict:
+    path = run / "summary.json"
+    if not path.is_file():
+        return {}
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise ConfigError("summary.json", f"cannot read {path}: {exc}") from None
+
+
+def _offset(metrics: dict) -> float:
+    """Start of the measured pull (s of run time): the pre-tightening stage's duration."""
+    for k in ("pre_pull_time", "pre_tighten_time"):
+        v = metrics.get(k)
+        if isinstance(v, int | float) and math.isfinite(v):
+            return float(v)
+    return 0.0
+
+
+def _window(summary: dict, t_end: float) -> tuple[str, float, float] | None:
+    """``(label, t0, t1)`` (s of run time) of the protocol's measuring window, or ``None``."""
+    proto = summary.get("protocol")
+    params = summary.get("parameters") or {}
+    metrics = summary.get("metrics") or {}
+    off = _offset(metrics)
+    if proto == "single-rod-bend" and params.get("mean_window") is not None:
+        return "mean window", off, min(off + float(params["mean_window"]), t_end)
+    if proto == "two-rope-bend" and params.get("transient") is not None:
+        return "after the start-up transient", off + float(params["transient"]), t_end
+    return None
+
+
+def _onsets(metrics: dict, off: float) -> list[tuple[str, float, float | None]]:
+    """``(name, time s of run time, force or None)`` of every slip onset / force drop metric."""
+    out = []
+    for name, v in metrics.items():
+        if isinstance(v, dict) and isinstance(v.get("time"), int | float) and re.search(r"slip|drop", name):
+            f = v.get("force")
+            out.append((name.replace("_", " "), off + float(v["time"]), float(f) if isinstance(f, int | float) else None))
+    return out
+
+
+def _reaction_magnitudes(log) -> dict[str, np.ndarray]:
+    groups = sorted({c[:-3] for c in log.columns if c.endswith("_fx")})
+    out = {}
+    for g in groups:
+        if all(f"{g}_f{c}" in log.columns for c in "xyz"):
+            f = np.stack([log[f"{g}_f{c}"].to_numpy(float) for c in "xyz"], axis=1)
+            out[g] = np.linalg.norm(f, axis=1)
+    return out
+
+
+def plot_run(run_dir: str | os.PathLike, out: str | os.PathLike | None = None) -> Path:
+    """Write the force figure of ``run_dir`` (PNG; default ``run_dir/force.png``) and return its path.
+
+    Raises
+    ------
+    ConfigError
+        When ``run_dir`` has no ``log.parquet``, or the log has neither a force column (``F_norm``
+        or ``F``) nor reaction columns.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    run = Path(run_dir)
+    log_path = run / "log.parquet"
+    if not log_path.is_file():
+        raise ConfigError("run_dir", f"{run} has no log.parquet (is it a run directory?)")
+    log = pd.read_parquet(log_path)
+    if not len(log) or "time" not in log.columns:
+        raise ConfigError("log.parquet", f"{log_path} has no rows with a time column")
+    summary = _read_summary(run)
+    metrics = summary.get("metrics") or {}
+    t = log["time"].to_numpy(float)
+    title = f"{summary.get('knot', run.name)} ({summary['protocol']})" if summary.get("protocol") else run.name
+    out = Path(out) if out is not None else run / "force.png"
+
+    ycol = "F_norm" if "F_norm" in log.columns else "F" if "F" in log.columns else None
+    if ycol is None:
+        mags = _reaction_magnitudes(log)
+        if not mags:
+            raise ConfigError("log.parquet", f"{log_path} has no force column (F_norm, F or <group>_fx)")
+        fig, ax = plt.subplots(figsize=FIGSIZE_ONE, dpi=DPI)
+        for g, f in mags.items():
+            ax.plot(t, f, label=g)
+        ax.set(xlabel="time t (s)", ylabel="reaction |F| (N)", title=f"{title}: reaction forces")
+        ax.legend()
+        ax.grid(alpha=0.3)
+        return _save(fig, out)
+
+    y = log[ycol].to_numpy(float)
+    ylabel = "F h²/EI" if ycol == "F_norm" else "F (N)"
+    xcol = next(((c, lab) for c, lab in _X_COLUMNS if c in log.columns), None)
+    fig, axes = plt.subplots(1, 2 if xcol else 1, figsize=FIGSIZE_TWO if xcol else FIGSIZE_ONE, dpi=DPI,
+                             squeeze=False)
+    ax_t = axes[0, 0]
+    ax_t.plot(t, y, color="tab:blue", lw=1.2, label=ylabel)
+    win = _window(summary, float(t[-1]))
+    sel = np.ones(t.size, bool)
+    if win is not None:
+        label, t0, t1 = win
+        ax_t.axvspan(t0, t1, color="tab:green", alpha=0.12, label=label)
+        sel = (t >= t0 - 1e-9) & (t <= t1 + 1e-9)
+    off = _offset(metrics)
+    if off > 0:
+        ax_t.axvline(off, color="0.5", lw=0.8, ls=":", label="end of pre-tightening")
+        sel &= t >= off - 1e-9
+    k_peak = None
+    if sel.any() and np.isfinite(y[sel]).any():
+        idx = np.flatnonzero(sel)
+        k_peak = int(idx[np.nanargmax(y[sel])])
+        ax_t.plot(t[k_peak], y[k_peak], "o", color="tab:red", label=f"peak {y[k_peak]:.4g}")
+    onsets = _onsets(metrics, off)
+    for name, ts, f in onsets:
+        ax_t.axvline(ts, color="tab:orange", ls="--", lw=1.0, label=f"{name} at {ts:.3g} s")
+        if f is not None and ycol == "F_norm":
+            ax_t.plot(ts, f, "x", color="tab:orange")
+    ax_t.set(xlabel="time t (s)", ylabel=ylabel, title=title)
+    ax_t.grid(alpha=0.3)
+    ax_t.legend(fontsize=7)
+    if xcol:
+        col, xlabel = xcol
+        ax_x = axes[0, 1]
+        x = log[col].to_numpy(float)
+        ax_x.plot(x, y, color="tab:blue", lw=1.2)
+        if k_peak is not None:
+            ax_x.plot(x[k_peak], y[k_peak], "o", color="tab:red", label=f"peak {y[k_peak]:.4g}")
+        for name, ts, _ in onsets:
+            xs = float(np.interp(ts, t, x))
+            ax_x.axvline(xs, color="tab:orange", ls="--", lw=1.0, label=f"{name} at {col} = {xs:.3g} m")
+        if col == "e" and ycol == "F_norm":
+            pts = [(int(m.group(1)) / 1000.0, v) for k, v in metrics.items()
+                   if (m := re.fullmatch(r"F_norm_at_e_(\d+)mm", k)) and isinstance(v, int | float)
+                   and math.isfinite(v)]
+            if pts:
+                ax_x.plot(*zip(*pts, strict=True), "s", mfc="none", color="k", label="F h²/EI at e = ... m")
+        if col == "e":
+            ax_x.invert_xaxis()  # the knot tightens from left to right
+        ax_x.set(xlabel=xlabel, ylabel=ylabel, title=f"{ylabel} against {col}")
+        ax_x.grid(alpha=0.3)
+        if ax_x.get_legend_handles_labels()[0]:
+            ax_x.legend(fontsize=7)
+    return _save(fig, out)
+
+
+def _save(fig, out: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(out, dpi=DPI)
+    plt.close(fig)
+    return out
