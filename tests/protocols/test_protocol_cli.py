@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import json
 
-from click.testing import CliRunner
-
 import pytest
+from click.testing import CliRunner
 
 from knotsim._cli_output import RUN_FILES, default_dir, prepare_output
 from knotsim.errors import ConfigError
