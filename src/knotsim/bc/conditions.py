@@ -27,6 +27,7 @@ import numpy as np
 
 from knotsim.bc.paths import Path, as_path
 from knotsim.errors import ConfigError
+from knotsim.rods.model import expand_indices
 
 _EPS_T = 1e-12
 
@@ -222,8 +223,8 @@ class BoundaryConditions:
         start, stop = self._check_window(name, start, stop)
         r = self.model.rod_index(self._rod(name, rod))
         ne = int(self.model.rod_n_edges[r])
-        idx = np.atleast_1d(np.asarray(edges))
-        if np.any((idx < -ne) | (idx >= ne)):
+        idx = expand_indices(edges, ne, f"a rod with {ne} edges", field=f"bc.{name}.edges")
+        if not np.issubdtype(idx.dtype, np.integer) or np.any((idx < -ne) | (idx >= ne)):
             raise ConfigError(f"bc.{name}.edges", f"edge index out of range for a rod with {ne} edges: {edges!r}")
         ge = self.model.rod_edge_start[r] + (idx % ne)
         load = _as_load(name, moment, ())

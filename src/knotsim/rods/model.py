@@ -34,6 +34,54 @@ def _as_array(value, shape_desc: str, field_name: str, dtype=float) -> np.ndarra
     return arr
 
 
+def expand_indices(spec, n: int, where: str, field: str = "nodes") -> np.ndarray:
+    """Indices ``(k,)`` into ``n`` items from ``spec``: an integer, ``"all"``, a range string
+    ``"a:b"`` or ``"a:b:step"`` (Python slice rules, end excluded, negative counts from the end:
+    ``"-3:"`` is the last three), a ``range``/``slice``, or a list mixing integers and range strings
+    (``[0, 1, "5:8"]``). A range whose bounds lie outside ``[-n, n]`` or that selects nothing raises
+    :class:`ConfigError` naming ``field``; single integers are checked by the caller."""
+    if isinstance(spec, str) or isinstance(spec, range | slice):
+        spec = [spec]
+    items = spec if isinstance(spec, list | tuple) else None
+    if items is None:
+        return np.atleast_1d(np.asarray(spec))
+    out: list[int] = []
+    for item in items:
+        if isinstance(item, str):
+            text = item.strip()
+            if text == "all":
+                out.extend(range(n))
+                continue
+            parts = text.split(":")
+            try:
+                vals = [int(p) if p.strip() else None for p in parts]
+            except ValueError:
+                vals = []
+            if not 2 <= len(parts) <= 3 or not vals:
+                raise ConfigError(field, f"expected an index, 'all' or a range 'a:b' / 'a:b:step', got {item!r}")
+            item = slice(*vals)
+        if isinstance(item, range):
+            item = slice(item.start, item.stop, item.step)
+        if isinstance(item, slice):
+            for bound in (item.start, item.stop):
+                if bound is not None and not -n <= bound <= n:
+                    raise ConfigError(field, f"range {_slice_text(item)!r} out of range for {where}")
+            if item.step == 0:
+                raise ConfigError(field, f"range {_slice_text(item)!r} has step 0")
+            sel = list(range(n))[item]
+            if not sel:
+                raise ConfigError(field, f"range {_slice_text(item)!r} selects nothing for {where}")
+            out.extend(sel)
+        else:
+            out.append(item)
+    return np.atleast_1d(np.asarray(out))
+
+
+def _slice_text(s: slice) -> str:
+    text = f"{'' if s.start is None else s.start}:{'' if s.stop is None else s.stop}"
+    return text + (f":{s.step}" if s.step is not None else "")
+
+
 @dataclass
 class RodSpec:
     """One elastic rod.
@@ -409,10 +457,11 @@ class Model:
 
     def global_nodes(self, rod: int | str, nodes) -> np.ndarray:
         """Global node numbers of local node indices ``nodes`` of ``rod`` (negative indices count from
-        the end). Raises :class:`ConfigError` naming the index if one is out of range."""
+        the end; ``"all"``, ranges ``"a:b"`` / ``"a:b:step"`` and lists mixing both, see
+        :func:`expand_indices`). Raises :class:`ConfigError` naming the index if one is out of range."""
         r = self.rod_index(rod)
         n = int(self.rod_node_start[r + 1] - self.rod_node_start[r])
-        idx = np.atleast_1d(np.asarray(nodes))
+        idx = expand_indices(nodes, n, f"rod {self.rod_names[r]!r} with {n} nodes")
         if idx.size == 0:
             raise ConfigError("nodes", "empty node list")
         if not np.issubdtype(idx.dtype, np.integer):

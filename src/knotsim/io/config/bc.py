@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 from knotsim._util.fields import (
     as_bool,
-    as_int_list,
+    as_integer,
     as_number,
     as_numbers,
     as_string,
@@ -69,6 +69,19 @@ def _ramp(value, path: str, shape: tuple):
     return load
 
 
+def as_index_spec(v, path: str):
+    """Node (or edge) indices of a run file: an integer, ``"all"``, a range ``"a:b"`` / ``"a:b:step"``
+    (end excluded, negative from the end), or a non-empty list of integers and range strings; the
+    ranges are expanded against the rod by :func:`knotsim.rods.model.expand_indices`."""
+    if isinstance(v, str):
+        return v
+    if isinstance(v, int) and not isinstance(v, bool):
+        return [v]
+    if not isinstance(v, list) or not v:
+        raise ConfigError(path, f"expected an index, 'all', a range 'a:b' or a non-empty list of them, got {v!r}")
+    return [x if isinstance(x, str) else as_integer(x, f"{path}[{i}]") for i, x in enumerate(v)]
+
+
 def parse_waypoints(value, wpath: str) -> Waypoints:
     """A ``waypoints = {times, points, absolute, from_current, then_velocity}`` table."""
     w = as_table(value, wpath)
@@ -112,9 +125,9 @@ def parse_bc(t, i: int) -> BCSpec:
     kw: dict = {"rod": rod, "start": start, "stop": stop}
     key_map: dict = {}
     if kind == "moment":
-        kw["edges"] = get_field(t, "edges", path, as_int_list)
+        kw["edges"] = get_field(t, "edges", path, as_index_spec)
     else:
-        kw["nodes"] = get_field(t, "nodes", path, as_int_list)
+        kw["nodes"] = get_field(t, "nodes", path, as_index_spec)
     if kind in ("clamp", "move"):
         kw["twist"] = get_field(t, "twist", path, as_bool, True)
     if kind == "move":
