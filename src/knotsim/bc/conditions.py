@@ -37,7 +37,7 @@ class Group:
     """One named boundary condition (see :class:`BoundaryConditions`)."""
 
     name: str
-    kind: str  # "clamp" | "hold" | "move" | "rotate" | "force" | "moment"
+    kind: str  # "clamp" | "hold" | "move" | "rotate" | "pin" | "force" | "moment"
     rod: int
     nodes: np.ndarray  # global node numbers
     edges: np.ndarray  # global edge numbers whose angles are prescribed / loaded
@@ -50,10 +50,12 @@ class Group:
     anchor: np.ndarray | None = field(default=None, repr=False)
     anchor_theta: np.ndarray | None = field(default=None, repr=False)
     anchor_time: float = 0.0
+    #: (3,) bool: the coordinates (x, y, z) the group prescribes (all three except for ``pin``)
+    axes: np.ndarray = field(default_factory=lambda: np.ones(3, np.bool_))
 
     @property
     def prescribed(self) -> bool:
-        return self.kind in ("clamp", "hold", "move", "rotate")
+        return self.kind in ("clamp", "hold", "move", "rotate", "pin")
 
     def active(self, t: float) -> bool:
         """Whether the group acts at time ``t`` (s): ``start <= t < stop``, with a tiny tolerance."""
@@ -100,7 +102,7 @@ class BoundaryConditions:
                     continue
                 overlap_t = group.start < other.stop and other.start < group.stop
                 common = np.intersect1d(group.nodes, other.nodes)
-                if overlap_t and common.size:
+                if overlap_t and common.size and np.any(group.axes & other.axes):
                     local = int(common[0] - self.model.rod_node_start[group.rod])
                     raise ConfigError(
                         f"bc.{group.name}.nodes",
@@ -205,6 +207,40 @@ class BoundaryConditions:
             raise ConfigError(f"bc.{name}.nodes", "rotating needs at least two adjacent nodes (one edge to twist)")
         return self._add(Group(name, "rotate", r, g, edges, start, stop, fix_twist=True, twist_angle=fn))
 
+    def pin(self, name: str, rod=None, nodes: Sequence[int] = (0,), axes: str = "xyz", twist: bool = False,
+            start: float = 0.0, stop: float | None = None) -> Group:
+        """Fix the coordinates ``axes`` (a string of ``x``, ``y``, ``z``) of ``nodes`` at their values
+        when the group becomes active; the others stay free. ``pin(nodes=[0])`` is a pinned end
+        (rotation free), ``axes="yz"`` a roller along x. ``twist`` also fixes the angles of the edges
+        between the nodes (for one node: of the edge it starts, or ends at the last node). The
+        reaction has a component only along the fixed axes."""
+        self._check_name(name)
+        start, stop = self._check_window(name, start, stop)
+        mask = np.array([c in str(axes) for c in "xyz"], np.bool_)
+        if not isinstance(axes, str) or not mask.any() or set(axes) - set("xyz") or len(set(axes)) != len(axes):
+            raise ConfigError(f"bc.{name}.axes", f"expected a string of distinct x, y, z (e.g. \"xz\"), got {axes!r}")
+        r, g = self._group_nodes(name, rod, nodes)
+        edges = np.zeros(0, np.int64)
+        if twist:
+            edges = self._edges_within(g)
+            if edges.size == 0 and g.size == 1:
+                m = self.model
+                out = np.flatnonzero(m.edge_nodes[:, 0] == g[0])
+                edges = out if out.size else np.flatnonzero(m.edge_nodes[:, 1] == g[0])
+        return self._add(Group(name, "pin", r, g, edges, start, stop, fix_twist=bool(twist), axes=mask))
+
+    def slide(self, name: str, rod=None, nodes: Sequence[int] = (0,), along=(1.0, 0.0, 0.0), twist: bool = False,
+              start: float = 0.0, stop: float | None = None) -> Group:
+        """A rail: ``nodes`` move only along the coordinate axis ``along`` (e.g. ``[1, 0, 0]``), the two
+        other coordinates fixed (:meth:`pin` with those axes)."""
+        return self.pin(name, rod, nodes, _other_axes(name, "along", along, keep=True), twist, start, stop)
+
+    def plane(self, name: str, rod=None, nodes: Sequence[int] = (0,), normal=(0.0, 0.0, 1.0), twist: bool = False,
+              start: float = 0.0, stop: float | None = None) -> Group:
+        """A symmetry plane (or a frictionless guide): ``nodes`` keep their coordinate along the
+        coordinate axis ``normal`` and move freely in the plane (:meth:`pin` with that axis)."""
+        return self.pin(name, rod, nodes, _other_axes(name, "normal", normal, keep=False), twist, start, stop)
+
     def force(self, name: str, rod=None, nodes: Sequence[int] = (-1,), force=(0.0, 0.0, 0.0),
               start: float = 0.0, stop: float | None = None) -> Group:
         """Apply a total force (N; a 3-vector or a callable of the time elapsed since the group became
@@ -260,7 +296,8 @@ class BoundaryConditions:
                 g.anchor = None  # not yet active, or released: (re-)activation captures afresh
                 continue
             if g.prescribed:
-                pos_dofs = (m.node_dof[g.nodes][:, None] + np.arange(3)[None, :]).ravel()
+                all_dofs = m.node_dof[g.nodes][:, None] + np.arange(3)[None, :]
+                pos_dofs = all_dofs.ravel()
                 th_dofs = m.edge_theta_dof[g.edges]
                 if g.anchor is None or g.anchor_time > t_in + _EPS_T:
                     g.anchor = q_in[pos_dofs].reshape(-1, 3).copy()
@@ -274,8 +311,8 @@ class BoundaryConditions:
                 if g.path is not None:
                     disp = g.path(t - g.start) - g.path(max(g.anchor_time - g.start, 0.0))
                     pos = pos + disp[None, :]
-                dofs.append(pos_dofs)
-                vals.append(pos.ravel())
+                dofs.append(all_dofs[:, g.axes].ravel())
+                vals.append(pos[:, g.axes].ravel())
                 if g.fix_twist and th_dofs.size:
                     th = g.anchor_theta
                     if g.twist_angle is not None:
@@ -311,7 +348,7 @@ class BoundaryConditions:
                 out[g.name] = np.zeros(4)
                 continue
             r = np.zeros(4)
-            for k in range(3):
+            for k in np.flatnonzero(g.axes):
                 r[k] = residual[m.node_dof[g.nodes] + k].sum()
             if g.fix_twist and g.edges.size:
                 r[3] = residual[m.edge_theta_dof[g.edges]].sum()
@@ -356,6 +393,23 @@ class BoundaryConditions:
         for g in self.groups.values():
             g.anchor = None
             g.anchor_theta = None
+
+
+def _other_axes(name: str, key: str, direction, keep: bool) -> str:
+    """The axes :meth:`BoundaryConditions.pin` fixes for a rail along (``keep``) or a plane normal to
+    a coordinate axis ``direction``. General directions are not supported: constraints are
+    prescribed coordinates of the unknowns, so a rail or plane must be aligned with x, y or z."""
+    try:
+        d = np.asarray(direction, dtype=float)
+    except (TypeError, ValueError):
+        d = np.zeros(0)
+    nz = np.flatnonzero(d != 0.0) if d.shape == (3,) and np.all(np.isfinite(d)) else np.zeros(0, np.int64)
+    if nz.size != 1:
+        raise ConfigError(f"bc.{name}.{key}", f"must be a coordinate axis such as [1, 0, 0] (constraints fix "
+                                              f"coordinates of the unknowns; a general direction is not "
+                                              f"supported), got {direction!r}")
+    k = int(nz[0])
+    return "".join(c for i, c in enumerate("xyz") if (i != k) == keep)
 
 
 def _as_load(name: str, value, shape):

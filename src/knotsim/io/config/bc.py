@@ -29,6 +29,9 @@ _BC_TYPES = {
     "hold": _BC_COMMON,
     "move": _BC_COMMON + ("twist", "velocity", "waypoints"),
     "rotate": _BC_COMMON + ("rate",),
+    "pin": _BC_COMMON + ("axes", "twist"),
+    "slide": _BC_COMMON + ("along", "twist"),
+    "plane": _BC_COMMON + ("normal", "twist"),
     "force": _BC_COMMON + ("force", "ramp"),
     "moment": ("type", "name", "rod", "edges", "start", "stop", "moment", "ramp"),
     "release": ("type", "name", "at"),
@@ -130,6 +133,11 @@ def parse_bc(t, i: int) -> BCSpec:
         kw["nodes"] = get_field(t, "nodes", path, as_index_spec)
     if kind in ("clamp", "move"):
         kw["twist"] = get_field(t, "twist", path, as_bool, True)
+    if kind in ("pin", "slide", "plane"):
+        kw["twist"] = get_field(t, "twist", path, as_bool, False)
+        key = {"pin": "axes", "slide": "along", "plane": "normal"}[kind]
+        if key in t:
+            kw[key] = as_string(t[key], f"{path}.{key}") if kind == "pin" else as_vec3(t[key], f"{path}.{key}")
     if kind == "move":
         has_v, has_w = "velocity" in t, "waypoints" in t
         if has_v == has_w:
