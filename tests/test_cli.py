@@ -89,9 +89,64 @@ def test_run_duration_override_and_quiet(runner, config_file, tmp_path):
     out = tmp_path / "out"
     res = runner.invoke(main, ["run", str(config_file), "-o", str(out), "--duration", "0.005", "--quiet"])
     assert res.exit_code == 0, res.output
-    assert res.output == ""
+    assert res.stdout == ""
     info = json.loads((out / "run.json").read_text())
     assert info["steps"] == 5 and info["config"]["run"]["duration"] == 0.005
+
+
+def test_run_refuses_non_empty_output_unless_overwrite(runner, config_file, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "summary.json").write_text("{}")  # e.g. left by an earlier knotsim tie
+    (out / "render").mkdir()
+    res = runner.invoke(main, ["run", str(config_file), "-o", str(out), "-q"])
+    assert res.exit_code == 2 and res.output.count("\n") == 1
+    assert "is not empty; pass --overwrite" in res.output
+    res = runner.invoke(main, ["run", str(config_file), "-o", str(out), "-q", "--overwrite"])
+    assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in out.iterdir()) == ["checkpoint.npz", "log.parquet", "run.json", "run.toml",
+                                                     "trajectory.h5"]
+
+
+def test_run_empty_o_is_bad_input_and_default_dir(runner, config_file, tmp_path, monkeypatch):
+    res = runner.invoke(main, ["run", str(config_file), "-o", "", "-q"])
+    assert res.exit_code == 2 and "must not be empty" in res.output
+    monkeypatch.chdir(tmp_path)
+    res = runner.invoke(main, ["run", str(config_file), "-q"])
+    assert res.exit_code == 0, res.output
+    assert "output directory: runs/run" in res.stderr
+    assert (tmp_path / "runs" / "run" / "trajectory.h5").is_file()
+    res = runner.invoke(main, ["run", "--from", "runs/run", "-o", "runs/run", "-q"])
+    assert res.exit_code == 2 and "new directory" in res.output
+
+
+def test_bc_without_rod_in_two_rod_model_names_the_field(runner, config_file, tmp_path):
+    two = CONFIG.replace('[model]', '[[rods]]\nname = "other"\nshape = "straight"\nlength = 0.1\nn_nodes = 11\n'
+                         'radius = 1e-3\nyoungs_modulus = 1e7\ndensity = 1000.0\nstart = [0.0, 0.05, 0.0]\n\n[model]')
+    config_file.write_text(two)
+    res = runner.invoke(main, ["run", str(config_file), "-o", str(tmp_path / "out"), "-q"])
+    assert res.exit_code == 2, res.output
+    assert "error: bc[0].rod: the model has 2 rods" in res.output
+    assert res.output.count("\n") == 1
+
+
+def test_warmup_reports_time_and_leaves_kernels_cached(runner):
+    from knotsim._warmup import kernels_cached
+
+    res = runner.invoke(main, ["warmup"])
+    assert res.exit_code == 0, res.output
+    assert "kernels ready in" in res.stdout and "cached: yes" in res.stdout
+    assert kernels_cached()
+
+
+def test_plot_command(runner, config_file, tmp_path):
+    out = tmp_path / "out"
+    assert runner.invoke(main, ["run", str(config_file), "-o", str(out), "-q"]).exit_code == 0
+    res = runner.invoke(main, ["plot", str(out), "-o", str(tmp_path / "f.png")])
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "f.png").stat().st_size > 1000
+    res = runner.invoke(main, ["plot", str(tmp_path)])
+    assert res.exit_code == 2 and "no log.parquet" in res.output
 
 
 def test_run_config_error_exit_2(runner, config_file, tmp_path):
@@ -137,7 +192,7 @@ def _fake_cases(results_by_case):
     mod = types.ModuleType("knotsim.validation.cases")
     mod.calls = []
 
-    def run_cases(names, quick):
+    def run_cases(names, quick, progress=False):
         mod.calls.append((list(names), quick))
         return [r for n in names for r in results_by_case[n]]
 

@@ -188,7 +188,10 @@ def validate(cases: tuple[str, ...], quick: bool, json_only: bool):
         _error(f"unknown validation case{'s' if len(unknown) > 1 else ''} {', '.join(map(repr, unknown))}; "
                f"known cases: {', '.join(known)}", EXIT_BAD_INPUT)
     names = list(dict.fromkeys(cases)) or known
-    results = list(mod.run_cases(names, quick))
+    import sys
+
+    announce_compile(contact=True)
+    results = list(mod.run_cases(names, quick, progress=sys.stderr.isatty()))
     passed = all(bool(r.get("passed")) for r in results)
     if not json_only:
         click.echo(_results_table(results))

@@ -125,9 +125,11 @@ def study(study_file: Path, study_dir: Path, workers: int | None, scheduler: str
 @_exit_codes
 def report(study_dir: Path, out: Path | None, metrics: tuple[str, ...]):
     """Write a Markdown report (tables and PNG plots) of the study in STUDY_DIR."""
+    import sys
+
     from knotsim.study.report import write_report
 
-    path = write_report(study_dir, out, plot_metrics=list(metrics) or None)
+    path = write_report(study_dir, out, plot_metrics=list(metrics) or None, progress=sys.stderr.isatty())
     click.echo(str(path))
 
 

@@ -7,10 +7,14 @@
 - a results table (parameters, outcome, wall time and the main metrics) and the failed cases;
 - for a study with the MAE259B shape (a knot axis with granny and reef, a friction axis ``mu``):
   ``F h²/EI`` against time for granny and reef at μ = 0.1 and 0.5 (from each case's
-  ``log.parquet``, column ``F_norm``), and the mean ``F h²/EI`` (metric ``F_norm_mean``) against μ
-  beside the published values (docs/physics.md §5);
-- generic plots: each numeric metric against each swept parameter, one line per combination of
-  the other swept parameters (mean and spread over repeats).
+  ``log.parquet``, column ``F_norm``), and the mean ``F h²/EI`` (metric ``F_norm_mean``) against μ;
+  beside the published values (docs/physics.md §5) only when every case has the published set-up
+  (:func:`published_setup_differences`: protocol ``single-rod-bend``, the full 13 s window and the
+  published parameters), otherwise the report says what differs;
+- one figure per metric of interest (the strength metrics, or those given as ``plot_metrics``)
+  that varies beyond round-off (relative spread above :data:`ROUND_OFF`): against the swept
+  parameter with the most values, one line per combination of the other swept parameters (mean
+  and spread over repeats). Solver statistics and timings stay in the table.
 
 Everything adapts to the columns that exist; a study with no completed case still gets a report.
 Figures are 640 x 400 pixels (6.4 x 4.0 in at 100 dpi).
@@ -42,6 +46,12 @@ FIGSIZE = (6.4, 4.0)  # in
 DPI = 100
 _NOT_METRICS = {"case_id", "kind", "outcome", "error", "wall_time", "traceback", "case_dir", "repeat"}
 _MAX_TABLE_METRICS = 8
+#: A metric whose spread over the completed cases is below this fraction of its magnitude is
+#: constant up to round-off (e.g. ``sim_time`` summed from steps) and not plotted.
+ROUND_OFF = 1e-9
+#: Parameters of the published MAE259B set-up (values: the single-rod-bend protocol's defaults).
+PUBLISHED_KEYS = ("n_nodes", "radius", "length", "youngs_modulus", "density", "poisson_ratio", "damping", "gravity",
+                  "dt", "contact.delta", "contact.nu", "pull_speed", "mean_window", "end_twist")
 
 
 # ------------------------------------------------------------------------------------------ helpers
@@ -136,18 +146,19 @@ def _metric_columns(df, params: list[str]) -> list[str]:
     for c in df.columns:
         if c in _NOT_METRICS or c in params or not _numeric(df[c]):
             continue
-        vals = done[c].dropna().astype(float)
-        if len(vals) and np.ptp(vals.to_numpy()) > 0:
+        vals = done[c].dropna().astype(float).to_numpy()
+        vals = vals[np.isfinite(vals)]
+        if len(vals) and np.ptp(vals) > ROUND_OFF * max(float(np.max(np.abs(vals))), 1e-300):
             out.append(c)
     return sorted(out, key=_priority)
 
 
 def _priority(name: str) -> int:
     """Strength metrics first, solver statistics and timings last."""
+    if re.search(r"wall_time|iterations|steps|failures|attempts|contact\.|topology\.|detected_at", name):
+        return 2
     if re.search(r"F_norm|traction|strength|force|slip", name):
         return 0
-    if re.search(r"wall_time|iterations|steps|failures|attempts|contact\.|topology\.", name):
-        return 2
     return 1
 
 
@@ -200,11 +211,86 @@ def _traction_series(study_dir: Path, row):
     return None
 
 
+def _fmt_value(v) -> str:
+    return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+
+def published_setup_differences(study_dir: str | os.PathLike, df) -> list[str]:
+    """What keeps the completed cases of ``df`` from being the published MAE259B set-up (empty: it
+    matches): the protocol, the measured window (``mean_window`` = 13 s, all of it simulated) and
+    the :data:`PUBLISHED_KEYS` parameters, read from each case's ``summary.json`` when the case
+    directory is there, else from the results table (its ``overrides.*`` columns)."""
+    import json
+
+    from knotsim.protocols.params import COMMON_DEFAULTS
+    from knotsim.protocols.registry import get_protocol
+
+    published = dict(COMMON_DEFAULTS)
+    published.update(get_protocol("single-rod-bend").defaults)
+    want = {k: published[k] for k in PUBLISHED_KEYS}
+    done = df[df["outcome"] == "completed"] if "outcome" in df.columns else df
+    diffs: dict[str, str] = {}
+
+    def differ(key, got, ref) -> None:
+        same = (math.isclose(float(got), float(ref), rel_tol=1e-9) if isinstance(ref, int | float)
+                and isinstance(got, int | float) and not isinstance(got, bool) else got == ref)
+        if not same and key not in diffs:
+            diffs[key] = f"{key} {_fmt_value(got)} instead of {_fmt_value(ref)}"
+
+    for _, row in done.iterrows():
+        summary = None
+        if isinstance(row.get("case_dir"), str):
+            path = Path(study_dir) / row["case_dir"] / "summary.json"
+            try:
+                summary = json.loads(path.read_text())
+            except (OSError, ValueError):
+                summary = None
+        if summary is not None:
+            if summary.get("protocol") != "single-rod-bend":
+                differ("protocol", summary.get("protocol"), "single-rod-bend")
+            got = summary.get("parameters") or {}
+            for k, ref in want.items():
+                if k in got:
+                    differ(k, got[k], ref)
+            sim_time = summary.get("sim_time")
+        else:
+            if row.get("kind") not in (None, "protocol"):
+                differ("kind", row.get("kind"), "protocol")
+            for k, ref in want.items():
+                v = row.get(f"overrides.{k}")
+                if v is not None and not (isinstance(v, float) and math.isnan(v)):
+                    differ(k, v, ref)
+            if row.get("mean_window") is not None and not _isna(row.get("mean_window")):
+                differ("mean_window", float(row["mean_window"]), want["mean_window"])
+            sim_time = row.get("sim_time")
+        if sim_time is not None and not _isna(sim_time):
+            pre = row.get("pre_pull_time")
+            pre = 0.0 if pre is None or _isna(pre) else float(pre)
+            if float(sim_time) < pre + want["mean_window"] - 1e-6 and "duration" not in diffs:
+                diffs["duration"] = (f"simulated {float(sim_time):.4g} s, not the full "
+                                     f"{want['mean_window']:g} s window")
+    return list(diffs.values())
+
+
+def _isna(v) -> bool:
+    try:
+        return bool(v != v)  # NaN
+    except (TypeError, ValueError):
+        return False
+
+
 def _mae259b(study_dir: Path, df, params, figdir: Path) -> list[str]:
     knot, mu = _find_knot_mu(df, params)
     if knot is None or mu is None:
         return []
     lines = ["## Reef against granny (MAE259B)", ""]
+    differences = published_setup_differences(study_dir, df)
+    if differences:
+        lines += ["Not compared with the published values: the set-up differs from the published one ("
+                  + "; ".join(differences) + ").", ""]
+    else:
+        lines += ["Every case has the published set-up (protocol single-rod-bend, the full 13 s window, "
+                  f"{', '.join(PUBLISHED_KEYS)} as published), so the published values are shown.", ""]
     done = df[df["outcome"] == "completed"].copy()
     done["_knot"] = done[knot].map(_knot_label)
     done = done[done["_knot"].notna()]
@@ -239,8 +325,9 @@ def _mae259b(study_dir: Path, df, params, figdir: Path) -> list[str]:
     metric = next((c for c in ("F_norm_mean", "mean_F_norm", "F_h2_EI_mean") if c in done.columns), None)
     fig, ax = _figure()
     pub = MAE259B_PUBLISHED
-    for k in ("granny", "reef"):
-        ax.plot(pub["mu"], pub[k], "o--", color=styles[k], mfc="none", label=f"{k}, published")
+    if not differences:
+        for k in ("granny", "reef"):
+            ax.plot(pub["mu"], pub[k], "o--", color=styles[k], mfc="none", label=f"{k}, published")
     table_rows = []
     if metric is not None:
         for k in ("granny", "reef"):
@@ -254,7 +341,12 @@ def _mae259b(study_dir: Path, df, params, figdir: Path) -> list[str]:
                 table_rows.append((k, m, r["mean"]))
     lines += _finish_plot(fig, ax, ("friction coefficient μ", "mean F h²/EI", "Mean traction against μ"), figdir,
                           "mae259b_mean_traction_mu.png", "mean F h²/EI against μ")
-    if table_rows:
+    if table_rows and differences:
+        lines += ["| knot | μ | knotsim mean F h²/EI |", "|---|---|---|"]
+        for k, m, v in sorted(table_rows):
+            lines.append(f"| {k} | {m:g} | {_md_cell(v)} |")
+        lines.append("")
+    elif table_rows:
         lines += ["| knot | μ | knotsim mean F h²/EI | published | ratio |", "|---|---|---|---|---|"]
         for k, m, v in sorted(table_rows):
             ref = next((p for x, p in zip(pub["mu"], pub[k], strict=True) if math.isclose(x, m)), None)
@@ -267,62 +359,81 @@ def _mae259b(study_dir: Path, df, params, figdir: Path) -> list[str]:
 
 
 # ------------------------------------------------------------------------------------------ generic
-def _generic_plots(df, params, metrics, figdir: Path, max_plots: int) -> list[str]:
-    done = df[df["outcome"] == "completed"] if "outcome" in df.columns else df
+def _primary_axis(done, params: list[str]) -> tuple[str | None, list[str]]:
+    """The swept parameter a metric is plotted against (the one with the most values, numeric
+    first) and the other swept parameters that vary (one line per combination of them)."""
     axes = [p for p in params if p != "repeat" and done[p].nunique(dropna=True) >= 2]
+    if not axes:
+        return None, []
+    x = max(axes, key=lambda p: (done[p].nunique(dropna=True), _is_numeric_values(list(done[p].dropna()))))
+    return x, [q for q in axes if q != x]
+
+
+def _generic_plots(df, params, metrics, figdir: Path, max_plots: int, bar=None) -> list[str]:
+    """One figure per metric: against the primary swept parameter, a line per combination of the
+    others."""
+    done = df[df["outcome"] == "completed"] if "outcome" in df.columns else df
+    p, others = _primary_axis(done, params)
     lines: list[str] = []
-    n = 0
-    for p in axes:
-        others = [q for q in params if q not in (p, "repeat") and done[q].nunique(dropna=True) >= 2]
-        values = list(done[p].dropna().unique())
-        numeric_x = _is_numeric_values(values)
-        if numeric_x:
-            order = sorted(float(v) for v in values)
-        else:
-            order = sorted(values, key=str)
-        for m in metrics:
-            if n >= max_plots:
-                lines.append(f"(more plots left out: at most {max_plots})")
-                return lines
-            sub = done[[p, m, *others]].dropna(subset=[p, m])
-            if sub.empty:
-                continue
-            fig, ax = _figure()
-            groups = sub.groupby(others, sort=True, dropna=False) if others else [((), sub)]
-            for key, g in groups:
-                key = key if isinstance(key, tuple) else (key,)
-                if numeric_x:
-                    xs = g[p].astype(float)
-                else:
-                    pos = {v: i for i, v in enumerate(order)}
-                    xs = g[p].map(pos).astype(float)
-                agg = g.assign(_x=xs.to_numpy()).groupby("_x")[m].agg(["mean", "std"]).sort_index()
-                label = ", ".join(f"{q} = {_md_cell(v)}" for q, v in zip(others, key, strict=True)) or None
-                ax.errorbar(agg.index, agg["mean"], yerr=agg["std"].fillna(0.0), fmt="o-", capsize=3, label=label)
-            if not numeric_x:
-                ax.set_xticks(range(len(order)), [str(v) for v in order], rotation=20)
-            elif len(order) > 2 and order[0] > 0 and order[-1] / order[0] >= 100:
-                ax.set_xscale("log")
-            ax.set_xlabel(p)
-            ax.set_ylabel(m)
-            ax.set_title(f"{m} against {p}")
-            ax.grid(alpha=0.3)
-            if others and len(sub.groupby(others)) <= 12:
-                ax.legend(fontsize=7)
-            name = f"{_slug(m)}__vs__{_slug(p)}.png"
-            _save(fig, figdir / name)
-            lines += [f"![{m} against {p}](report_figures/{name})", ""]
-            n += 1
+    if p is None:
+        return lines
+    values = list(done[p].dropna().unique())
+    numeric_x = _is_numeric_values(values)
+    order = sorted(float(v) for v in values) if numeric_x else sorted(values, key=str)
+    for n, m in enumerate(metrics):
+        if n >= max_plots:
+            lines.append(f"(more plots left out: at most {max_plots})")
+            break
+        if bar is not None:
+            bar.update(1)
+        sub = done[[p, m, *others]].dropna(subset=[p, m])
+        if sub.empty:
+            continue
+        fig, ax = _figure()
+        groups = sub.groupby(others, sort=True, dropna=False) if others else [((), sub)]
+        for key, g in groups:
+            key = key if isinstance(key, tuple) else (key,)
+            if numeric_x:
+                xs = g[p].astype(float)
+            else:
+                pos = {v: i for i, v in enumerate(order)}
+                xs = g[p].map(pos).astype(float)
+            agg = g.assign(_x=xs.to_numpy()).groupby("_x")[m].agg(["mean", "std"]).sort_index()
+            label = ", ".join(f"{q} = {_md_cell(v)}" for q, v in zip(others, key, strict=True)) or None
+            ax.errorbar(agg.index, agg["mean"], yerr=agg["std"].fillna(0.0), fmt="o-", capsize=3, label=label)
+        if not numeric_x:
+            ax.set_xticks(range(len(order)), [str(v) for v in order], rotation=20)
+        elif len(order) > 2 and order[0] > 0 and order[-1] / order[0] >= 100:
+            ax.set_xscale("log")
+        ax.set_xlabel(p)
+        ax.set_ylabel(m)
+        ax.set_title(f"{m} against {p}")
+        ax.grid(alpha=0.3)
+        if others and len(sub.groupby(others)) <= 12:
+            ax.legend(fontsize=7)
+        name = f"{_slug(m)}__vs__{_slug(p)}.png"
+        _save(fig, figdir / name)
+        lines += [f"![{m} against {p}](report_figures/{name})", ""]
     return lines
 
 
+def _of_interest(metrics: list[str]) -> list[str]:
+    """The strength metrics (force, traction, slip), or the next tier when there is none."""
+    for tier in (0, 1):
+        picked = [m for m in metrics if _priority(m) == tier]
+        if picked:
+            return picked
+    return []
+
+
 # ------------------------------------------------------------------------------------------ report
-def write_report(study_dir: str | os.PathLike, out: str | os.PathLike | None = None, *, max_plots: int = 60,
-                 plot_metrics: Sequence[str] | None = None) -> Path:
+def write_report(study_dir: str | os.PathLike, out: str | os.PathLike | None = None, *, max_plots: int = 12,
+                 plot_metrics: Sequence[str] | None = None, progress: bool = False) -> Path:
     """Write the Markdown report of ``study_dir`` (default ``study_dir/report.md``) and its figures
     (``report_figures/`` next to it); returns the report's path. ``max_plots`` limits the
-    number of generic plots; ``plot_metrics`` (metric column names, e.g. ``["F_norm_hold"]``)
-    plots only those, in that order (default: every numeric metric that varies).
+    number of metric figures; ``plot_metrics`` (metric column names, e.g. ``["F_norm_hold"]``)
+    plots only those, in that order (default: the strength metrics that vary beyond round-off);
+    ``progress`` shows a progress bar (tqdm, on stderr) over the figures.
 
     Raises
     ------
@@ -339,7 +450,7 @@ def write_report(study_dir: str | os.PathLike, out: str | os.PathLike | None = N
     prov = store.read_provenance()
     params = _param_columns(study_dir, df)
     metrics = _metric_columns(df, params) if len(df) else []
-    plotted = metrics
+    plotted = _of_interest(metrics)
     if plot_metrics is not None:
         unknown = [m for m in plot_metrics if m not in df.columns]
         if unknown:
@@ -389,10 +500,18 @@ def write_report(study_dir: str | os.PathLike, out: str | os.PathLike | None = N
         if len(failed):
             lines += ["## Failed cases", "", _md_table(failed, ["case_id", *params, "error"]), "",
                       "Tracebacks: column `traceback` of results.parquet and `cases/<case_id>/error.txt`.", ""]
-        lines += _mae259b(study_dir, df, params, figdir)
-        plots = _generic_plots(df, params, plotted, figdir, max_plots)
+        from tqdm.auto import tqdm
+
+        with tqdm(total=min(len(plotted), max_plots) + 1, desc="report figures", unit="figure",
+                  disable=not progress, leave=False) as bar:
+            lines += _mae259b(study_dir, df, params, figdir)
+            bar.update(1)
+            plots = _generic_plots(df, params, plotted, figdir, max_plots, bar)
         if plots:
-            lines += ["## Metrics against swept parameters", "", *plots]
+            lines += ["## Metrics against swept parameters", "",
+                      "One figure per strength metric that varies beyond round-off"
+                      + (f" ({', '.join(plot_metrics)} as asked)" if plot_metrics is not None else "")
+                      + "; the other metrics are in the table above.", "", *plots]
     else:
         lines += ["No finished case yet.", ""]
 

@@ -79,8 +79,11 @@ CASES: dict[str, Callable[[bool], list[dict]]] = {"cantilever": cantilever, "hel
                                                   "bends": bends}
 
 
-def run_cases(names=None, quick: bool = False) -> list[dict]:
-    """Run the named cases (all when ``names`` is empty) and return all their rows."""
+def run_cases(names=None, quick: bool = False, progress: bool = False) -> list[dict]:
+    """Run the named cases (all when ``names`` is empty) and return all their rows; ``progress``
+    shows a progress bar over the cases (tqdm, on stderr, with the case running)."""
+    from tqdm.auto import tqdm
+
     from knotsim.errors import ConfigError
 
     names = list(names or CASES)
@@ -88,6 +91,8 @@ def run_cases(names=None, quick: bool = False) -> list[dict]:
     if unknown:
         raise ConfigError("case", f"unknown validation case {unknown[0]!r}; known cases: {sorted(CASES)}")
     rows = []
-    for name in names:
-        rows.extend(CASES[name](quick))
+    with tqdm(names, desc="validate", unit="case", disable=not progress, leave=False) as bar:
+        for name in bar:
+            bar.set_postfix_str(name)
+            rows.extend(CASES[name](quick))
     return rows
