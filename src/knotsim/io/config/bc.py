@@ -77,12 +77,22 @@ def as_index_spec(v, path: str):
     (end excluded, negative from the end), or a non-empty list of integers and range strings; the
     ranges are expanded against the rod by :func:`knotsim.rods.model.expand_indices`."""
     if isinstance(v, str):
-        return v
+        return _range_text(v, path)
     if isinstance(v, int) and not isinstance(v, bool):
         return [v]
     if not isinstance(v, list) or not v:
         raise ConfigError(path, f"expected an index, 'all', a range 'a:b' or a non-empty list of them, got {v!r}")
-    return [x if isinstance(x, str) else as_integer(x, f"{path}[{i}]") for i, x in enumerate(v)]
+    return [_range_text(x, f"{path}[{i}]") if isinstance(x, str) else as_integer(x, f"{path}[{i}]")
+            for i, x in enumerate(v)]
+
+
+def _range_text(v: str, path: str) -> str:
+    parts = v.strip().split(":")
+    ok = v.strip() == "all" or (2 <= len(parts) <= 3 and all(p.strip().lstrip("-").isdigit() or not p.strip()
+                                                               for p in parts))
+    if not ok:
+        raise ConfigError(path, f"expected an integer, 'all' or a range 'a:b' / 'a:b:step', got {v!r}")
+    return v
 
 
 def parse_waypoints(value, wpath: str) -> Waypoints:
