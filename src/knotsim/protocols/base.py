@@ -256,7 +256,10 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
             if overrides and key in overrides:
                 raise ConfigError(key, f"the geometry {geometry!r} fixes {key}; it cannot be set")
         params = resolve_params(templates, defaults, quick_layer, overrides)
-        geo = geometry_from_source(geometry, radius=params["radius"])
+        scale = float(params["geometry_scale"])
+        if not (scale > 0 and math.isfinite(scale)):
+            raise ConfigError("geometry_scale", f"must be a positive factor (file units to m), got {scale!r}")
+        geo = geometry_from_source(geometry, radius=params["radius"], scale=scale)
         if geo.kind == "run" and overrides and "radius" in overrides and overrides["radius"] != geo.radius:
             raise ConfigError("radius", f"the run {geometry!r} was computed with radius {geo.radius} m; "
                                         "continuing it with another radius is not the same rope")

@@ -86,6 +86,8 @@ def geometry_from_source(path: str, *, radius: float | None, scale: float = 1.0,
 
     p = Path(path)
     if is_run_directory(p):
+        if scale != 1.0:
+            raise ConfigError("geometry_scale", f"{str(p)!r} is a run directory, already in m; geometry_scale must be 1")
         frames = read_run_frame(p, -1, field="geometry")
         ropes = [f.positions for f in frames]
         state = [{"velocities": f.velocities, "edge_angles": f.edge_angles,

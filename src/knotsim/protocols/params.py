@@ -29,6 +29,7 @@ COMMON_DEFAULTS: dict[str, Any] = {
     "dt": 1e-3,               # target time step, s
     "duration": None,         # simulated time, s (None: the protocol decides)
     "output_interval": 0.1,   # trajectory frame interval, s
+    "geometry_scale": 1.0,    # factor from a node file's units to m (geometry sources only)
 }
 
 #: Unit and one-line meaning of every protocol parameter (of :data:`COMMON_DEFAULTS` and of each
@@ -48,6 +49,7 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "dt": ("s", "target time step (the stepper halves it on failure and grows it back)"),
     "duration": ("s", "simulated time (none: the protocol computes it)"),
     "output_interval": ("s", "time between trajectory frames"),
+    "geometry_scale": ("-", "factor from a --geometry node file's units to m (geometry sources only)"),
     "contact.delta": ("m", "contact distance tolerance of the IMC potential"),
     "contact.nu": ("m/s", "slip speed below which friction is smoothed (sticking)"),
     # pulling
