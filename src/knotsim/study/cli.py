@@ -101,6 +101,10 @@ def study(study_file: Path, study_dir: Path, workers: int | None, scheduler: str
     if reused:
         msg += f" ({len(reused)} already finished, {len(todo)} to run)"
     click.echo(f"{msg} on {where}; results in {study_dir}/")
+    if todo and not scheduler:  # compile once here rather than in every worker process
+        from knotsim._cli_output import announce_compile
+
+        announce_compile(contact=True)
     bar = _Bar(enabled=not quiet and sys.stderr.isatty())
     try:
         df = run_study(spec, study_dir, workers=workers, scheduler=scheduler, resume=resume,
