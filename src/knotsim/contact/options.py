@@ -1,0 +1,108 @@
+"""Settings of the rope-rope contact (IMC) and friction: :class:`ContactOptions`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+
+from knotsim.errors import ConfigError
+
+__all__ = ["ContactOptions", "ContactSettings", "StiffnessMode"]
+
+
+def _positive(name: str, value, allow_zero: bool = False) -> float:
+    ok = isinstance(value, int | float | np.floating | np.integer) and not isinstance(value, bool)
+    ok = ok and math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
+    if not ok:
+        kind = "non-negative" if allow_zero else "positive"
+        raise ConfigError(f"contact.{name}", f"must be a {kind} finite number, got {value!r}")
+    return float(value)
+
+
+class StiffnessMode(StrEnum):
+    """How the contact stiffness k_c is chosen (:attr:`ContactOptions.stiffness_mode`)."""
+
+    ADAPTIVE = "adaptive"  #: from the largest contact force and approach speed, step by step
+    CONSTANT = "constant"  #: ``stiffness`` throughout
+
+
+@dataclass
+class ContactOptions:
+    """Settings of :class:`ContactInteraction` (SI units).
+
+    - ``delta``: IMC distance tolerance δ (m), default 5e-4;
+    - ``nu``: slip tolerance ν (m/s) of the smooth Coulomb law, default 1e-4;
+    - ``mu``: friction coefficient; a number, or a per-rod-pair table ``{(rod_a, rod_b): mu, ...}``
+      (rods by index or name, order irrelevant; self-contact of rod ``a`` is ``(a, a)``) with an
+      optional ``"default"`` entry (default 0) for the pairs not listed. Default 0 (no friction);
+    - ``stiffness_mode``: ``"adaptive"`` (default) or ``"constant"``;
+    - ``stiffness``: contact stiffness k_c (N/m); required for ``"constant"``; in adaptive mode
+      an optional lower bound / starting value;
+    - ``stiffness_scaler``: adaptive ``k_c = scaler × F_max / h_min`` (default 500);
+    - ``stiffness_floor``: smallest adaptive k_c (N/m); default from the model (see module doc);
+    - ``margin``: broad-phase cut-off margin (m), default 2e-3;
+    - ``penetration_limit``: deepest accepted penetration as a fraction of the smaller radius of the
+      pair (default 0.2); a deeper step is retried smaller;
+    - ``self_contact``: whether edges of the same rod touch (default True);
+    - ``parallel_smoothing``: length ℓ (m) of the regularization of the edge–edge distance
+      (:mod:`knotsim.contact.regularized_distance`) that makes contact between (nearly) parallel
+      edges smooth, default 2e-6. Each pair gets ``η = 8 d ℓ / (l̄_a² + l̄_b²)`` (``d`` its contact
+      distance, ``l̄`` the rest lengths of its edges), so that the regularized distance Δ exceeds the
+      exact one by at most ``ℓ d / Δ`` (at unstretched edges), and the contact point of two parallel
+      edges moves from the middle of their overlap to its end over node motions of about 4ℓ, whatever
+      the mesh. 0 uses
+      the exact segment distance, whose force jumps between the nodes of parallel edges.
+    """
+
+    delta: float = 5e-4
+    nu: float = 1e-4
+    mu: float | dict = 0.0
+    stiffness_mode: StiffnessMode | str = "adaptive"
+    stiffness: float | None = None
+    stiffness_scaler: float = 500.0
+    stiffness_floor: float | None = None
+    margin: float = 2e-3
+    penetration_limit: float = 0.2
+    self_contact: bool = True
+    parallel_smoothing: float = 2e-6
+
+    def validate(self) -> None:
+        """Raise :class:`ConfigError` naming the first bad field."""
+        self.delta = _positive("delta", self.delta)
+        self.nu = _positive("nu", self.nu)
+        if isinstance(self.mu, dict):
+            for key, val in self.mu.items():
+                _positive(f"mu[{key!r}]", val, allow_zero=True)
+                if key != "default" and not (isinstance(key, tuple) and len(key) == 2):
+                    raise ConfigError("contact.mu", f"table keys must be (rod_a, rod_b) pairs or 'default', got {key!r}")
+        else:
+            self.mu = _positive("mu", self.mu, allow_zero=True)
+        try:
+            self.stiffness_mode = StiffnessMode(self.stiffness_mode)
+        except ValueError:
+            raise ConfigError("contact.stiffness_mode",
+                              f"must be 'adaptive' or 'constant', got {self.stiffness_mode!r}") from None
+        if self.stiffness is not None:
+            self.stiffness = _positive("stiffness", self.stiffness)
+        elif self.stiffness_mode == "constant":
+            raise ConfigError("contact.stiffness", "constant stiffness mode needs a stiffness (N/m)")
+        self.stiffness_scaler = _positive("stiffness_scaler", self.stiffness_scaler)
+        if self.stiffness_floor is not None:
+            self.stiffness_floor = _positive("stiffness_floor", self.stiffness_floor)
+        self.margin = _positive("margin", self.margin, allow_zero=True)
+        self.penetration_limit = _positive("penetration_limit", self.penetration_limit)
+        self.parallel_smoothing = _positive("parallel_smoothing", self.parallel_smoothing, allow_zero=True)
+        if self.parallel_smoothing > 0.1 * self.delta:
+            raise ConfigError("contact.parallel_smoothing",
+                              f"must be at most 0.1 delta = {0.1 * self.delta:g} m (it is the largest increase of "
+                              f"the contact distance it causes), got {self.parallel_smoothing!r}; "
+                              f"typical values are 1e-6 to 1e-5 m")
+        if not isinstance(self.self_contact, bool | np.bool_):
+            raise ConfigError("contact.self_contact", f"must be true or false, got {self.self_contact!r}")
+
+
+#: Former name of :class:`ContactOptions`.
+ContactSettings = ContactOptions
