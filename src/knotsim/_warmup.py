@@ -9,9 +9,9 @@ about half, the elastic energies, the sparse LU and the knot-diagram kernels the
 
 :func:`kernels_cached` tells, from numba's cache index files of a few kernels that every run of
 that kind compiles, whether a run would start by compiling. :func:`warm_up` compiles the kernels
-of a contact run of a small knot: the contact kernels in a second process while this one compiles
-the elastic, solver and topology kernels (two cores: about half the wall time), so that a run
-afterwards loads everything from the cache. Library code: nothing here prints.
+of a contact run of a small knot: the contact and topology kernels in a second process while this
+one compiles the elastic and solver kernels (two cores: the two halves at the same time), so that
+a run afterwards loads everything from the cache. Library code: nothing here prints.
 """
 
 from __future__ import annotations
@@ -78,13 +78,19 @@ def _small_run_spec(contact: bool, linear_solver: str = "auto"):
 
 
 def _warm_core() -> None:
-    """Elastic energies, time stepper, banded and sparse linear solvers, knot-diagram kernels."""
-    from knotsim.knots.topology import analyze
+    """Elastic energies, time stepper, banded and sparse linear solvers."""
     from knotsim.run import build_run
 
     for solver in ("auto", "sparse"):
         sim, cfg = build_run(_small_run_spec(contact=False, linear_solver=solver))
         sim.run(cfg.duration, output_dir=None, progress=False)
+
+
+def _warm_topology() -> None:
+    """Knot-diagram kernels (crossings, Alexander polynomial) of the knot-type check."""
+    from knotsim.knots.topology import analyze
+    from knotsim.run import build_run
+
     sim, cfg = build_run(_small_run_spec(contact=False))
     model = cfg.model
     analyze([model.rod_positions(sim.state.q, r) for r in range(model.n_rods)], None)
@@ -117,45 +123,54 @@ def _warm_run() -> None:
     sim.run(cfg.duration, output_dir=None, progress=False)
 
 
-_PARTS = {"core": _warm_core, "contact": _warm_contact}
+_PARTS = {"core": _warm_core, "contact": _warm_contact, "topology": _warm_topology, "run": _warm_run}
+#: What the second process compiles (in this order) while the first compiles ``core``: the contact
+#: and topology kernels, then a few steps of the contact run, by when ``core`` is in the cache, so
+#: that the steps compile only what is left (contact pattern merging, nodal force summaries).
+_SECOND = ("contact", "topology", "run")
 
 
 def warm_up(parallel: bool = True) -> dict[str, float]:
-    """Compile every kernel a contact run needs; returns wall times (s): ``core``, ``contact``
-    (measured in the process that compiled it), ``run`` (a few steps of the small contact run,
-    which compile what is left) and ``total``. With ``parallel`` the contact part
-    compiles in a second Python process at the same time (falling back to this process if that
-    one fails); the compiled code reaches this process through numba's cache."""
+    """Compile every kernel a contact run needs; returns wall times (s) of the parts ``core``
+    (elastic energies, stepper, linear solvers), ``contact``, ``topology`` and ``run`` (a few steps
+    of a small contact run, compiling what is left), each measured in the process that ran it,
+    and ``total``. With ``parallel`` a second Python process compiles ``contact``, ``topology`` and
+    ``run`` while this one compiles ``core`` (falling back to this process if that one fails); the
+    compiled code reaches this process through numba's cache, and a final ``run`` here loads it."""
     t0 = time.perf_counter()
     times: dict[str, float] = {}
     child = None
     if parallel:
         env = dict(os.environ, OMP_NUM_THREADS=os.environ.get("OMP_NUM_THREADS", "1"),
                    OPENBLAS_NUM_THREADS=os.environ.get("OPENBLAS_NUM_THREADS", "1"))
-        child = subprocess.Popen([sys.executable, "-m", "knotsim._warmup", "contact"], env=env,
+        child = subprocess.Popen([sys.executable, "-m", "knotsim._warmup", *_SECOND], env=env,
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     t = time.perf_counter()
     _warm_core()
     times["core"] = time.perf_counter() - t
+    done: dict[str, float] = {}
     if child is not None:
         out, _ = child.communicate()
-        if child.returncode == 0 and out.strip():
-            times["contact"] = float(out.strip().splitlines()[-1])
-            child = True
-        else:
-            child = None
-    if child is None:  # serial, or the second process failed
-        t = time.perf_counter()
-        _warm_contact()
-        times["contact"] = time.perf_counter() - t
-    t = time.perf_counter()
-    _warm_run()
-    times["run"] = time.perf_counter() - t
+        if child.returncode == 0:
+            for line in out.splitlines():
+                part, _, secs = line.partition(" ")
+                if part in _PARTS and secs:
+                    done[part] = float(secs)
+    for part in _SECOND:  # what the second process did not do (serial, or it failed)
+        if part not in done:
+            t = time.perf_counter()
+            _PARTS[part]()
+            done[part] = time.perf_counter() - t
+        elif part == "run":
+            _warm_run()  # loads what the other process compiled
+    times.update(done)
     times["total"] = time.perf_counter() - t0
     return times
 
 
-if __name__ == "__main__":  # python -m knotsim._warmup core|contact: prints the part's wall time (s)
-    _t = time.perf_counter()
-    _PARTS[sys.argv[1]]()
-    sys.stdout.write(f"{time.perf_counter() - _t:.3f}\n")
+if __name__ == "__main__":  # python -m knotsim._warmup PART ...: prints "PART seconds" per part
+    for _part in sys.argv[1:]:
+        _t = time.perf_counter()
+        _PARTS[_part]()
+        sys.stdout.write(f"{_part} {time.perf_counter() - _t:.3f}\n")
+        sys.stdout.flush()

@@ -216,9 +216,10 @@ def warmup(serial: bool):
     click.echo("compiling the numerical kernels (a small contact run)" + ("" if serial else ", 2 processes")
                + ("; they are cached already, this checks and loads them" if was else "") + " ...", err=True)
     times = warm_up(parallel=not serial)
-    click.echo(f"kernels ready in {times['total']:.1f} s (elastic, solver and topology {times['core']:.1f} s, "
-               f"contact {times['contact']:.1f} s{' in parallel' if not serial else ''}, "
-               f"a few steps {times['run']:.1f} s); cached: {'yes' if kernels_cached() else 'NO'}")
+    second = "" if serial else " in a second process"
+    click.echo(f"kernels ready in {times['total']:.1f} s (elastic energies and solver {times['core']:.1f} s; "
+               f"contact {times['contact']:.1f} s, topology {times['topology']:.1f} s and a few steps "
+               f"{times['run']:.1f} s{second}); cached: {'yes' if kernels_cached() else 'NO'}")
 
 
 # ------------------------------------------------------------------------------------------ post-processing
