@@ -66,7 +66,7 @@ def kernels_cached(contact: bool = True, topology: bool = True) -> bool:
 def _small_run_spec(contact: bool, linear_solver: str = "auto"):
     """A few steps of the quick overhand pull (the kernels' argument types are those of any run)."""
     from knotsim.protocols.base import build_protocol_run
-    from knotsim.run import RunSpec
+    from knotsim.runspec import RunSpec
 
     _, _, spec, _ = build_protocol_run("overhand-pull", "overhand_n1", quick=True,
                                        overrides={"duration": 0.015, "output_interval": 0.005})
@@ -79,7 +79,7 @@ def _small_run_spec(contact: bool, linear_solver: str = "auto"):
 
 def _warm_core() -> None:
     """Elastic energies, time stepper, banded and sparse linear solvers."""
-    from knotsim.run import build_run
+    from knotsim.runspec import build_run
 
     for solver in ("auto", "sparse"):
         sim, cfg = build_run(_small_run_spec(contact=False, linear_solver=solver))
@@ -89,7 +89,7 @@ def _warm_core() -> None:
 def _warm_topology() -> None:
     """Knot-diagram kernels (crossings, Alexander polynomial) of the knot-type check."""
     from knotsim.knots.topology import analyze
-    from knotsim.run import build_run
+    from knotsim.runspec import build_run
 
     sim, cfg = build_run(_small_run_spec(contact=False))
     model = cfg.model
@@ -101,7 +101,7 @@ def _warm_contact() -> None:
     so that a second process running this does not compile the stepper's kernels too)."""
     import numpy as np
 
-    from knotsim.run import build_run
+    from knotsim.runspec import build_run
 
     spec = _small_run_spec(contact=True)
     dt = float(spec.data["solver"]["dt"])
@@ -117,7 +117,7 @@ def _warm_contact() -> None:
 
 def _warm_run() -> None:
     """A few steps of the small contact run: whatever the parts left (mostly loaded from the cache)."""
-    from knotsim.run import build_run
+    from knotsim.runspec import build_run
 
     sim, cfg = build_run(_small_run_spec(contact=True))
     sim.run(cfg.duration, output_dir=None, progress=False)
@@ -134,7 +134,7 @@ def warm_up(parallel: bool = True) -> dict[str, float]:
     """Compile every kernel a contact run needs; returns wall times (s) of the parts ``core``
     (elastic energies, stepper, linear solvers), ``contact``, ``topology`` and ``run`` (a few steps
     of a small contact run, compiling what is left), each measured in the process that ran it,
-    and ``total``. With ``parallel`` a second Python process compiles ``contact``, ``topology`` and
+    their CPU times ``cpu.<part>`` (s) and the wall time ``total``. With ``parallel`` a second Python process compiles ``contact``, ``topology`` and
     ``run`` while this one compiles ``core`` (falling back to this process if that one fails); the
     compiled code reaches this process through numba's cache, and a final ``run`` here loads it."""
     t0 = time.perf_counter()
@@ -145,22 +145,22 @@ def warm_up(parallel: bool = True) -> dict[str, float]:
                    OPENBLAS_NUM_THREADS=os.environ.get("OPENBLAS_NUM_THREADS", "1"))
         child = subprocess.Popen([sys.executable, "-m", "knotsim._warmup", *_SECOND], env=env,
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     _warm_core()
-    times["core"] = time.perf_counter() - t
+    times["core"], times["cpu.core"] = time.perf_counter() - t, time.process_time() - c
     done: dict[str, float] = {}
     if child is not None:
         out, _ = child.communicate()
         if child.returncode == 0:
             for line in out.splitlines():
-                part, _, secs = line.partition(" ")
-                if part in _PARTS and secs:
-                    done[part] = float(secs)
+                part, wall, cpu = (line.split() + ["", "", ""])[:3]
+                if part in _PARTS and cpu:
+                    done[part], done[f"cpu.{part}"] = float(wall), float(cpu)
     for part in _SECOND:  # what the second process did not do (serial, or it failed)
         if part not in done:
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.process_time()
             _PARTS[part]()
-            done[part] = time.perf_counter() - t
+            done[part], done[f"cpu.{part}"] = time.perf_counter() - t, time.process_time() - c
         elif part == "run":
             _warm_run()  # loads what the other process compiled
     times.update(done)
@@ -168,9 +168,9 @@ def warm_up(parallel: bool = True) -> dict[str, float]:
     return times
 
 
-if __name__ == "__main__":  # python -m knotsim._warmup PART ...: prints "PART seconds" per part
+if __name__ == "__main__":  # python -m knotsim._warmup PART ...: prints "PART wall_s cpu_s" per part
     for _part in sys.argv[1:]:
-        _t = time.perf_counter()
+        _t, _c = time.perf_counter(), time.process_time()
         _PARTS[_part]()
-        sys.stdout.write(f"{_part} {time.perf_counter() - _t:.3f}\n")
+        sys.stdout.write(f"{_part} {time.perf_counter() - _t:.3f} {time.process_time() - _c:.3f}\n")
         sys.stdout.flush()

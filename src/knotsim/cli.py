@@ -64,7 +64,7 @@ def run(config: Path | None, outdir: Path | None, overwrite: bool, from_dir: Pat
         quiet: bool):
     """Run the simulation described by CONFIG (a run file, see docs/run-files.md), or continue --from DIR."""
     from knotsim.errors import ConfigError
-    from knotsim.run import RunSpec, build_run
+    from knotsim.runspec import RunSpec, build_run
 
     if config is None:
         if from_dir is None:
@@ -217,9 +217,12 @@ def warmup(serial: bool):
                + ("; they are cached already, this checks and loads them" if was else "") + " ...", err=True)
     times = warm_up(parallel=not serial)
     second = "" if serial else " in a second process"
+    cpu = {k: times[f"cpu.{k}"] for k in ("core", "contact", "topology", "run")}
     click.echo(f"kernels ready in {times['total']:.1f} s (elastic energies and solver {times['core']:.1f} s; "
                f"contact {times['contact']:.1f} s, topology {times['topology']:.1f} s and a few steps "
-               f"{times['run']:.1f} s{second}); cached: {'yes' if kernels_cached() else 'NO'}")
+               f"{times['run']:.1f} s{second}; CPU time {cpu['core']:.1f} s and "
+               f"{cpu['contact'] + cpu['topology'] + cpu['run']:.1f} s); "
+               f"cached: {'yes' if kernels_cached() else 'NO'}")
 
 
 # ------------------------------------------------------------------------------------------ post-processing
