@@ -181,7 +181,7 @@ def api_markdown() -> str:
 
     parts = [API_HEADER]
     for name in ks.__all__:
-        # through the lazy table: `ks.run` is hidden by the submodule knotsim.run once that is imported
+        # through the lazy table: `ks.run` is hidden by the submodule knotsim.runspec once that is imported
         obj = getattr(importlib.import_module(ks._LAZY[name]), name) if name in ks._LAZY else getattr(ks, name)
         if name == "__version__":
             parts.append(f"## `ks.__version__`\n\nThe package version, `{obj}`.\n")

@@ -52,3 +52,15 @@ def test_protocol_base_does_not_import_its_subclasses():
     text = (ROOT / "src" / "knotsim" / "protocols" / "base.py").read_text()
     for mod in ("overhand_pull", "single_rod_bend", "two_rope_bend"):
         assert f"protocols.{mod}" not in text
+
+
+def test_public_names_are_not_shadowed_by_submodules():
+    """``ks.run`` stays the function after ``knotsim.runspec`` (or any submodule) is imported."""
+    code = ("import importlib, pkgutil, types, knotsim as ks\n"
+            "for m in pkgutil.walk_packages(ks.__path__, 'knotsim.'):\n"
+            "    if '.cli' in m.name or m.name.endswith('__main__'):\n        continue\n"
+            "    try:\n        importlib.import_module(m.name)\n    except ImportError:\n        pass\n"
+            "bad = [n for n in ks._LAZY if isinstance(getattr(ks, n), types.ModuleType)]\n"
+            "print(bad)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == "[]"

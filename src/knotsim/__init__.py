@@ -44,13 +44,13 @@ _LAZY = {
     "SolverOptions": "knotsim.solver.stepper", "Simulation": "knotsim.simulation",
     "solve_static": "knotsim.solver.static",
     # runs
-    "RunSpec": "knotsim.run", "RunResult": "knotsim.run", "build_run": "knotsim.run", "run": "knotsim.run",
+    "RunSpec": "knotsim.runspec", "RunResult": "knotsim.runspec", "build_run": "knotsim.runspec", "run": "knotsim.runspec",
     "read_checkpoint": "knotsim.io.checkpoint", "read_trajectory": "knotsim.io.trajectory",
     # knots
     "get_knot": "knotsim.knots.library", "list_knots": "knotsim.knots.library", "analyze": "knotsim.knots.topology",
     "tie_from_straight": "knotsim.knots.tying", "list_tying_sequences": "knotsim.knots.tying",
     # protocols and studies
-    "run_protocol": "knotsim.protocols", "build_protocol_run": "knotsim.protocols", "protocols": "knotsim.protocols",
+    "run_protocol": "knotsim.protocols", "build_protocol_run": "knotsim.protocols",
     "run_study": "knotsim.study", "load_study": "knotsim.study", "write_report": "knotsim.study",
 }
 

@@ -12,7 +12,7 @@ import pytest
 from knotsim.errors import ConfigError
 from knotsim.io.trajectory import TrajectoryWriter, read_trajectory
 from knotsim.io.vtk import export_vtk, node_curvature, node_twist
-from knotsim.run import RunSpec, run
+from knotsim.runspec import RunSpec, run
 
 R_RING = 0.05  # ring centreline radius (m)
 N_RING = 64

@@ -14,7 +14,7 @@ from click.testing import CliRunner
 from knotsim.cli import main
 from knotsim.errors import ConfigError, GeometryError
 from knotsim.io.trajectory import read_trajectory
-from knotsim.run import RunSpec, build_run, run
+from knotsim.runspec import RunSpec, build_run, run
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 FOREIGN = Path(__file__).resolve().parents[3] / "shared" / "data" / "foreign"

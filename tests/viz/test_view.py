@@ -15,7 +15,7 @@ from click.testing import CliRunner
 
 from knotsim.cli import main
 from knotsim.errors import ConfigError
-from knotsim.run import RunSpec, run
+from knotsim.runspec import RunSpec, run
 from knotsim.viz import view
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"

@@ -10,11 +10,11 @@ the knot (as run-file tables), what to record at every step and which strength m
 2. the starting geometry from a library knot or any other source
    (:mod:`knotsim.protocols.geometry`: node files, ``.mat``, an earlier run's directory); the rest
    shape is straight and untwisted (only the initial shape is knotted);
-3. the run description (:class:`~knotsim.run.RunSpec`): rods, the protocol's boundary conditions,
+3. the run description (:class:`~knotsim.runspec.RunSpec`): rods, the protocol's boundary conditions,
    contact, solver, duration; it is written to ``run.toml`` (and, on request, anywhere else), and
    ``knotsim run`` replays it to the same final positions;
 4. identify the knot type at the start (:func:`knotsim.knots.topology.analyze`);
-5. run it through :func:`knotsim.run.build_run` (files ``trajectory.h5``, ``log.parquet``,
+5. run it through :func:`knotsim.runspec.build_run` (files ``trajectory.h5``, ``log.parquet``,
    ``run.json``, ``run.toml``, ``checkpoint.npz`` in ``out_dir``), adding the protocol's quantities
    to every log row; a failure of the solver is recorded in the summary (``run_status``), not raised;
 6. identify the knot type at the end; a change is reported in ``outcome`` (``"untied"``,
@@ -224,12 +224,12 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
     file or an earlier run's directory; see :mod:`knotsim.protocols.geometry`).
 
     Returns ``(protocol, ctx, spec, notes)``: the protocol, its :class:`RunContext`, the complete
-    :class:`~knotsim.run.RunSpec` and a list of notes for the user (e.g. quick settings that were
+    :class:`~knotsim.runspec.RunSpec` and a list of notes for the user (e.g. quick settings that were
     not applied because the geometry fixes the node count)."""
     from knotsim.protocols.geometry import geometry_from_library, geometry_from_source
     from knotsim.protocols.registry import get_protocol
     from knotsim.rods import RodSpec
-    from knotsim.run import RunSpec
+    from knotsim.runspec import RunSpec
 
     proto = get_protocol(name)
     notes: list[str] = []
@@ -334,7 +334,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     (s), ``sim_time`` (s), ``n_steps``, ``failed_attempts``, ``notes``.
     """
     from knotsim.protocols.metrics import knot_status
-    from knotsim.run import build_run
+    from knotsim.runspec import build_run
 
     wall0 = time.perf_counter()
     proto, ctx, spec, notes = build_protocol_run(name, knot, geometry=geometry, overrides=overrides, quick=quick)

@@ -82,10 +82,10 @@ def tie_from_straight(name: str, out_dir=None, overrides: dict | None = None,
     With ``out_dir`` the run files (trajectory, log, run.json, run.toml, checkpoint.npz) are
     written there, so that ``knotsim pull --geometry OUT_DIR`` loads the tied knot next. The knot
     type is :func:`knotsim.knots.topology.analyze` of the final centreline with its far-away
-    closure. The sequence runs through the one run builder (:func:`knotsim.run.run`).
+    closure. The sequence runs through the one run builder (:func:`knotsim.runspec.run`).
     """
     from knotsim.knots.topology import analyze
-    from knotsim.run import RunSpec, run
+    from knotsim.runspec import RunSpec, run
 
     cfg = load_tying_config(name)
     if overrides:
