@@ -95,7 +95,8 @@ def announce_compile(contact: bool = True, topology: bool = True) -> None:
 
     if kernels_cached(contact=contact, topology=topology):
         return
-    click.echo("note: compiling the numerical kernels for the first time (about 1 minute on a 2-core machine, "
-               "2 processes; cached for later runs; `knotsim warmup` does this ahead) ...", err=True)
+    click.echo("note: compiling the numerical kernels for the first time: about 100 s of CPU time, 1-3 minutes "
+               "on a 2-core machine depending on its load (2 processes); cached for later runs; "
+               "`knotsim warmup` does this ahead ...", err=True)
     times = warm_up(parallel=True)
     click.echo(f"note: kernels compiled in {times['total']:.0f} s", err=True)
