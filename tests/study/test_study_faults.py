@@ -137,3 +137,48 @@ def test_lock_is_released_when_its_process_is_killed(tmp_path):
         proc.wait()
     time.sleep(0.05)
     StudyLock(tmp_path).acquire().release()
+
+
+def _dask_worker(address, env):
+    import subprocess
+    import sys
+
+    cmd = [sys.executable, "-m", "distributed.cli.dask_worker", address, "--no-nanny", "--nthreads", "1",
+           "--no-dashboard"]
+    return subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def test_dask_study_whose_only_worker_dies_does_not_hang(study_file, kill_one, tmp_path):
+    """One worker without a nanny; it is killed (SIGKILL) by the third case. The killed case is
+    recorded worker lost at once, the cases still waiting for a worker after worker_timeout."""
+    import time
+
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=0, processes=False, protocol="tcp", host="127.0.0.1",
+                                  dashboard_address=None, silence_logs=40) as cl:
+        worker = _dask_worker(cl.scheduler_address, dict(os.environ))
+        try:
+            with distributed.Client(cl.scheduler_address) as client:
+                client.wait_for_workers(1, timeout=60)
+                t0 = time.monotonic()
+                df = run_study(study_file, tmp_path / "s", scheduler=client, worker_timeout=3.0)
+                wall = time.monotonic() - t0
+        finally:
+            worker.kill()
+            worker.wait()
+    assert len(df) == N_CASES and wall < 60
+    lost = df[df["outcome"] == "failed"].set_index("case_id")["error"]
+    assert lost[kill_one].startswith("worker lost") and "left the cluster" in lost[kill_one]
+    others = lost.drop(kill_one)
+    assert others.str.contains("no Dask worker").all()
+    assert (df["outcome"] == "completed").sum() + len(lost) == N_CASES
+
+
+def test_dask_study_with_a_nanny_loses_only_the_killed_case(study_file, kill_one, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, processes=True, threads_per_worker=1, dashboard_address=None,
+                                  silence_logs=50) as cluster:
+        df = run_study(study_file, tmp_path / "s", scheduler=cluster.scheduler_address, worker_timeout=60.0)
+    lost = df[df["outcome"] == "failed"]
+    assert list(lost["case_id"]) == [kill_one] and lost["error"].iloc[0].startswith("worker lost")
+    assert (df["outcome"] == "completed").sum() == N_CASES - 1

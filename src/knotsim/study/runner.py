@@ -78,6 +78,7 @@ def run_study(
     max_cases_per_worker: int | None = None,
     progress: Callable[[Progress], None] | None = None,
     session: dict | None = None,
+    worker_timeout: float = 300.0,
 ):
     """Run every case of ``study`` into ``study_dir``; returns the results table (pandas DataFrame).
 
@@ -104,6 +105,11 @@ def run_study(
         Called with a :class:`Progress` about every 0.2 s and after each finished case.
     session:
         Extra information recorded in this session's entry of ``provenance.json``.
+    worker_timeout:
+        Dask only: when the cluster has had no worker for this long (s), the cases still pending
+        are recorded ``worker lost`` and the study ends instead of waiting for ever. A case whose
+        worker leaves the cluster while running it (killed, with or without a nanny) is recorded
+        ``worker lost`` at once (within about a second); the other cases go on.
 
     A failing case (any exception) is recorded with outcome ``"failed"``, its error and traceback;
     the other cases go on. A worker process that dies takes only its case with it: the case is
@@ -118,11 +124,11 @@ def run_study(
         # planned again under the lock: another session may have finished cases meanwhile
         spec, cases, reused, todo = plan_study(spec, study_dir, resume=resume, retry_failed=retry_failed)
         return _run_locked(spec, cases, reused, todo, study_dir, workers, scheduler, resume, retry_failed,
-                           max_cases_per_worker, progress, session)
+                           max_cases_per_worker, progress, session, worker_timeout)
 
 
 def _run_locked(spec, cases, reused, todo, study_dir, workers, scheduler, resume, retry_failed,
-                max_cases_per_worker, progress, session):
+                max_cases_per_worker, progress, session, worker_timeout):
     store = StudyStore(study_dir)
     store.cleanup()
     corrupt = store.corrupt() if resume else {}
@@ -147,7 +153,7 @@ def _run_locked(spec, cases, reused, todo, study_dir, workers, scheduler, resume
         if backend == "local":
             _run_local(todo, store, spec, records, state, cases, workers, max_cases_per_worker, progress, t0)
         else:
-            _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0)
+            _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0, worker_timeout)
     df = store.write_results(cases, records)
     store.finish_session(completed=int(state.done - state.failed), failed=int(state.failed),
                          wall_time=time.perf_counter() - t0)
@@ -201,10 +207,18 @@ class _Loop:
             self.progress(st)
         st.last = None
 
-    def run(self, futures: dict, result) -> None:
+    def run(self, futures: dict, result, watch=None) -> None:
+        """Wait for ``futures`` (``{future: case}``); ``watch(pending)`` (optional, called every
+        round) returns ``{future: exception}`` of cases whose worker was lost."""
         pending = dict(futures)
         self.tick(len(pending), False)
         while pending:
+            if watch is not None:
+                for f, exc in watch(pending).items():
+                    case = pending.pop(f, None)
+                    if case is not None:
+                        self.finish(case, _lost(case, exc))
+                        self.tick(len(pending), True)
             finished = [f for f in pending if f.done()]
             for f in finished:
                 case = pending.pop(f)
@@ -242,7 +256,7 @@ def _run_local(todo, store, spec, records, state, cases, workers, max_cases_per_
     pool.shutdown(wait=True)
 
 
-def _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0):
+def _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0, worker_timeout):
     try:
         from distributed import Client
     except ImportError as exc:
@@ -280,7 +294,7 @@ def _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0)
             f = client.submit(execute_case, _payload(c), str(store.path.resolve()), str(spec.base_dir),
                               key=f"knotsim-case-{c.case_id}-{token}", pure=False, retries=0)
             futures[f] = c
-        loop.run(futures, lambda f: f.result())
+        loop.run(futures, lambda f: f.result(), _DaskWatch(client, worker_timeout, store.started))
     except BaseException:
         client.cancel(list(futures))
         store.write_results(cases, records)
@@ -288,3 +302,64 @@ def _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0)
     finally:
         if own:
             client.close()
+
+
+class DaskWorkerLost(RuntimeError):
+    """The Dask worker running a case left the cluster, or no worker was left to run it."""
+
+
+class _DaskWatch:
+    """Finds the cases of a Dask study whose worker was lost (see :func:`run_study`).
+
+    Every 0.5 s it asks the scheduler which worker processes which case; a case last seen on a
+    worker that has left the cluster (killed, out of memory, restarted by its nanny) and that had
+    started there (``started(case)``: its ``cases/.tmp-*`` directory exists) is lost; a case only
+    queued there is left to the scheduler. A started case that no worker processes on two looks in
+    a row lost its worker between two looks. When
+    the cluster has had no worker for ``timeout`` s, every pending case is lost."""
+
+    def __init__(self, client, timeout: float, started):
+        self.client, self.timeout, self.started = client, float(timeout), started
+        self.on: dict = {}  # key -> worker address where it was last seen processing
+        self._next = 0.0
+        self._empty_since: float | None = None
+        self._orphan: dict = {}
+
+    def __call__(self, pending: dict) -> dict:
+        now = time.monotonic()
+        if now < self._next:
+            return {}
+        self._next = now + 0.5
+        try:
+            processing = self.client.processing()
+            workers = set(self.client.scheduler_info().get("workers", {}))
+        except Exception:  # scheduler busy or unreachable: try again next round
+            return {}
+        busy = set()
+        for addr, keys in processing.items():
+            for key in keys:
+                self.on[key] = addr
+                busy.add(key)
+        lost = {}
+        for f, case in pending.items():
+            addr = self.on.get(f.key)
+            if f.done() or not self.started(case):
+                if addr is not None and addr not in workers:  # only queued there: the scheduler reassigns it
+                    del self.on[f.key]
+                continue
+            if addr is not None and addr not in workers:
+                lost[f] = DaskWorkerLost(f"the Dask worker {addr} left the cluster while running this case")
+            elif f.key not in busy:  # started, yet processed nowhere: its worker died between two looks
+                if self._orphan.get(f.key, 0) >= 1 and not f.done():
+                    lost[f] = DaskWorkerLost("the Dask worker running this case left the cluster")
+                self._orphan[f.key] = self._orphan.get(f.key, 0) + 1
+        if workers:
+            self._empty_since = None
+        elif self._empty_since is None:
+            self._empty_since = now
+        elif now - self._empty_since >= self.timeout:
+            for f in pending:
+                lost.setdefault(f, DaskWorkerLost(f"no Dask worker in the cluster for {self.timeout:g} s"))
+        if lost:
+            self.client.cancel(list(lost))
+        return lost

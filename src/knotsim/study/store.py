@@ -75,6 +75,7 @@ def run_case_atomically(case: dict, study_dir: str | os.PathLike, base_dir: str 
     directory is discarded and the existing record returned.
     """
     from knotsim import __version__
+    from knotsim.study._worker import fault_injection
     from knotsim.study.executors import get_executor
 
     cases_dir = Path(study_dir) / CASES
@@ -86,6 +87,7 @@ def run_case_atomically(case: dict, study_dir: str | os.PathLike, base_dir: str 
     tmp = cases_dir / f"{TMP_PREFIX}{case['case_id']}-{host}-{os.getpid()}-{uuid.uuid4().hex[:6]}"
     tmp.mkdir(parents=True)
     write_json(tmp / "case.json", case)
+    fault_injection(case["case_id"])  # tests only (KNOTSIM_TEST_KILL_CASE)
     started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
     t0 = time.perf_counter()
     metrics: dict = {}
@@ -253,6 +255,12 @@ class StudyStore:
                 if rec is not None:
                     out[d.name] = rec
         return out
+
+    def started(self, case) -> bool:
+        """True when some worker has started ``case`` (a :class:`~knotsim.study.spec.Case` or its
+        id) and not yet finished it: a ``cases/.tmp-<id>-*`` directory exists."""
+        cid = case if isinstance(case, str) else case.case_id
+        return any(self.cases_dir.glob(f"{TMP_PREFIX}{cid}-*"))
 
     def corrupt(self) -> dict[str, str]:
         """Case directories with a missing or invalid ``result.json`` (a write cut short, a file
