@@ -35,7 +35,9 @@ class Simulation:
         self.model = model
         self.bcs = bcs
         self.settings = settings or SolverSettings()
-        self.stepper = Stepper(model, interactions, self.settings)
+        own = bcs.interactions() if hasattr(bcs, "interactions") else []  # spring grips, feedback logs
+        self.stepper = Stepper(model, [*interactions, *(i for i in own if all(i is not j for j in interactions))],
+                               self.settings)
         self.state = state.copy() if state is not None else initial_state(model)
         self.dt = self.settings.dt
         self.dt_min = self.settings.dt_min or self.settings.dt / 1024.0

@@ -25,7 +25,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from knotsim.bc.feedback import LoadCell, RingCut
+from knotsim.bc.grips import GripMethods
 from knotsim.bc.paths import Path, as_path
+from knotsim.bc.rigid import Rotation, as_rotation
 from knotsim.errors import ConfigError
 from knotsim.rods.model import expand_indices
 
@@ -37,7 +40,7 @@ class Group:
     """One named boundary condition (see :class:`BoundaryConditions`)."""
 
     name: str
-    kind: str  # "clamp" | "hold" | "move" | "rotate" | "pin" | "force" | "moment"
+    kind: str  # clamp | hold | move | rotate | pin | load_cell | force | moment | spring | ring_twist
     rod: int
     nodes: np.ndarray  # global node numbers
     edges: np.ndarray  # global edge numbers whose angles are prescribed / loaded
@@ -52,17 +55,27 @@ class Group:
     anchor_time: float = 0.0
     #: (3,) bool: the coordinates (x, y, z) the group prescribes (all three except for ``pin``)
     axes: np.ndarray = field(default_factory=lambda: np.ones(3, np.bool_))
+    #: a turning grip's rotation and its pivot (m) captured at activation
+    rotation: Rotation | None = None
+    pivot: np.ndarray | None = field(default=None, repr=False)
+    #: spring grips: total stiffness (N/m) and the anchor points (n, 3) m at the current time
+    stiffness: float = 0.0
+    target: np.ndarray | None = field(default=None, repr=False)
+    cell: LoadCell | None = None
+    ring: RingCut | None = None
+    #: ``(positions (n, 3), pivot (3,), angle)`` prescribed by the last evaluation (turning grips)
+    current: tuple | None = field(default=None, repr=False)
 
     @property
     def prescribed(self) -> bool:
-        return self.kind in ("clamp", "hold", "move", "rotate", "pin")
+        return self.kind in ("clamp", "hold", "move", "rotate", "pin", "load_cell")
 
     def active(self, t: float) -> bool:
         """Whether the group acts at time ``t`` (s): ``start <= t < stop``, with a tiny tolerance."""
         return self.start - _EPS_T <= t < self.stop - _EPS_T
 
 
-class BoundaryConditions:
+class BoundaryConditions(GripMethods):
     """The set of boundary conditions of a run (the *control* of the time stepper).
 
     All node indices are local to the rod named by ``rod`` (index or name); negative indices count
@@ -72,6 +85,10 @@ class BoundaryConditions:
     def __init__(self, model):
         self.model = model
         self.groups: dict[str, Group] = {}
+        #: extra log columns of the last accepted step (load cells, turning grips), N, N m, m, rad
+        self.log_values: dict[str, float] = {}
+        self._interaction = None
+        self._interaction_seen = False
 
     # ------------------------------------------------------------------ building
     def _check_name(self, name: str) -> None:
@@ -169,20 +186,32 @@ class BoundaryConditions:
         return self._add(Group(name, "hold", r, g, np.zeros(0, np.int64), start, stop))
 
     def move(self, name: str, rod=None, nodes: Sequence[int] = (-2, -1), path=None, twist: bool = True,
-             start: float = 0.0, stop: float | None = None) -> Group:
+             start: float = 0.0, stop: float | None = None, rotation=None) -> Group:
         """Move ``nodes`` rigidly along ``path``: a :class:`~knotsim.bc.paths.Path`, a velocity
-        (3-vector, m/s), or a callable of elapsed time returning a displacement (m)."""
+        (3-vector, m/s), or a callable of elapsed time returning a displacement (m).
+
+        ``rotation`` (a :class:`~knotsim.bc.rigid.Rotation` or a dict ``{axis, rate | angle,
+        point}``) also turns the group rigidly about ``axis`` through ``point`` (m, carried along by
+        the path; default ``"centroid"``, the group's centroid at activation), and with ``twist`` the
+        edge angles of the group's edges advance so that their material frames turn with it. A
+        turning grip without ``path`` only turns."""
         self._check_name(name)
         start, stop = self._check_window(name, start, stop)
-        if path is None:
+        if path is None and rotation is None:
             raise ConfigError(f"bc.{name}.path", "a moving group needs a path (velocity, waypoints or callable)")
         try:
-            p = as_path(path)
+            p = as_path(path if path is not None else (0.0, 0.0, 0.0))
         except ConfigError as exc:
             raise ConfigError(f"bc.{name}.{exc.field}", str(exc).split(": ", 1)[1]) from None
+        rot = None
+        if rotation is not None:
+            try:
+                rot = as_rotation(rotation)
+            except ConfigError as exc:
+                raise ConfigError(f"bc.{name}.rotation.{exc.field}", str(exc).split(": ", 1)[1]) from None
         r, g = self._group_nodes(name, rod, nodes)
         return self._add(Group(name, "move", r, g, self._edges_within(g) if twist else np.zeros(0, np.int64),
-                               start, stop, fix_twist=twist, path=p))
+                               start, stop, fix_twist=twist, path=p, rotation=rot))
 
     def rotate(self, name: str, rod=None, nodes: Sequence[int] = (-2, -1), rate: float | None = None,
                angle: Callable[[float], float] | None = None, start: float = 0.0,
@@ -291,11 +320,16 @@ class BoundaryConditions:
         dofs: list[np.ndarray] = []
         vals: list[np.ndarray] = []
         f_ext = np.zeros(m.n_dofs)
+        self._interaction_seen = False
+        self._set_ring_twist(t)
         for g in self.groups.values():
             if not g.active(t):
                 g.anchor = None  # not yet active, or released: (re-)activation captures afresh
+                g.target = None
                 continue
-            if g.prescribed:
+            if g.kind == "spring":
+                self._spring_targets(g, t, q_in, t_in)
+            elif g.prescribed:
                 all_dofs = m.node_dof[g.nodes][:, None] + np.arange(3)[None, :]
                 pos_dofs = all_dofs.ravel()
                 th_dofs = m.edge_theta_dof[g.edges]
@@ -303,20 +337,11 @@ class BoundaryConditions:
                     g.anchor = q_in[pos_dofs].reshape(-1, 3).copy()
                     g.anchor_theta = q_in[th_dofs].copy()
                     g.anchor_time = t_in
-                    if g.path is not None:
-                        g.path.bind(g.anchor.mean(axis=0))
-                        if g.path.absolute_start is not None:
-                            self._check_path_start(g, g.anchor.mean(axis=0))
-                pos = g.anchor
-                if g.path is not None:
-                    disp = g.path(t - g.start) - g.path(max(g.anchor_time - g.start, 0.0))
-                    pos = pos + disp[None, :]
+                    self._activated(g)
+                pos, th = self._prescribed_values(g, t, q_in, t_in)
                 dofs.append(all_dofs[:, g.axes].ravel())
                 vals.append(pos[:, g.axes].ravel())
-                if g.fix_twist and th_dofs.size:
-                    th = g.anchor_theta
-                    if g.twist_angle is not None:
-                        th = th + g.twist_angle(t - g.start) - g.twist_angle(max(g.anchor_time - g.start, 0.0))
+                if th is not None:
                     dofs.append(th_dofs)
                     vals.append(np.asarray(th, float))
             elif g.kind == "force":
@@ -341,11 +366,14 @@ class BoundaryConditions:
         """
         m = self.model
         out = {}
+        self._check_interaction(t)
+        self.log_values = {}
         for g in self.groups.values():
             if not g.prescribed:
                 continue
             if not g.active(t):
                 out[g.name] = np.zeros(4)
+                self._feedback_log(g, None, None, t)
                 continue
             r = np.zeros(4)
             for k in np.flatnonzero(g.axes):
@@ -353,6 +381,7 @@ class BoundaryConditions:
             if g.fix_twist and g.edges.size:
                 r[3] = residual[m.edge_theta_dof[g.edges]].sum()
             out[g.name] = r
+            self._feedback_log(g, r, residual, t)
         return out
 
     def save_state(self) -> dict[str, tuple[dict, dict]]:
@@ -360,16 +389,21 @@ class BoundaryConditions:
         :mod:`knotsim.io.checkpoint` (a group that has not captured one saves an empty section)."""
         out = {}
         for g in self.groups.values():
-            if not g.prescribed:
+            if not (g.prescribed or g.kind == "spring"):
                 continue
+            extra = g.cell.save() if g.cell is not None else {}
             if g.anchor is None:
-                out[g.name] = ({"anchored": False}, {})
+                out[g.name] = ({"anchored": False, **extra}, {})
                 continue
-            arrays = {"anchor": g.anchor, "anchor_theta": g.anchor_theta}
+            arrays = {"anchor": g.anchor}
+            if g.anchor_theta is not None:
+                arrays["anchor_theta"] = g.anchor_theta
+            if g.pivot is not None:
+                arrays["pivot"] = g.pivot
             bound = g.path.bound_state() if g.path is not None else None
             if bound is not None:
                 arrays["path_start"] = bound
-            out[g.name] = ({"anchored": True, "anchor_time": float(g.anchor_time)}, arrays)
+            out[g.name] = ({"anchored": True, "anchor_time": float(g.anchor_time), **extra}, arrays)
         return out
 
     def load_state(self, sections: dict[str, tuple[dict, dict]], time: float) -> None:
@@ -377,14 +411,18 @@ class BoundaryConditions:
         were not saved, or whose node count differs, capture their anchors afresh when they act."""
         for name, (meta, arrays) in sections.items():
             g = self.groups.get(name)
-            if g is None or not g.prescribed or not meta.get("anchored"):
+            if g is None or not (g.prescribed or g.kind == "spring") or not meta.get("anchored"):
                 continue
             anchor = np.array(arrays["anchor"], float)
             if anchor.shape != (len(g.nodes), 3):
                 continue
             g.anchor = anchor
-            g.anchor_theta = np.array(arrays["anchor_theta"], float)
+            g.anchor_theta = np.array(arrays["anchor_theta"], float) if "anchor_theta" in arrays else None
             g.anchor_time = float(meta["anchor_time"])
+            if g.cell is not None:
+                g.cell.load(meta)
+            if "pivot" in arrays:
+                g.pivot = np.array(arrays["pivot"], float)
             if g.path is not None and "path_start" in arrays:
                 g.path.bind(np.array(arrays["path_start"], float))
 
@@ -393,6 +431,10 @@ class BoundaryConditions:
         for g in self.groups.values():
             g.anchor = None
             g.anchor_theta = None
+            g.target = None
+            if g.cell is not None:
+                g.cell.reset()
+        self._set_ring_twist(-math.inf)
 
 
 def _other_axes(name: str, key: str, direction, keep: bool) -> str:

@@ -27,13 +27,16 @@ _BC_COMMON = ("type", "name", "rod", "nodes", "start", "stop")
 _BC_TYPES = {
     "clamp": _BC_COMMON + ("twist",),
     "hold": _BC_COMMON,
-    "move": _BC_COMMON + ("twist", "velocity", "waypoints"),
+    "move": _BC_COMMON + ("twist", "velocity", "waypoints", "rotate_about"),
     "rotate": _BC_COMMON + ("rate",),
     "pin": _BC_COMMON + ("axes", "twist"),
     "slide": _BC_COMMON + ("along", "twist"),
     "plane": _BC_COMMON + ("normal", "twist"),
     "force": _BC_COMMON + ("force", "ramp"),
     "moment": ("type", "name", "rod", "edges", "start", "stop", "moment", "ramp"),
+    "ring_twist": ("type", "name", "rod", "node", "start", "stop", "total", "rate"),
+    "spring": _BC_COMMON + ("stiffness", "velocity", "waypoints"),
+    "load_cell": _BC_COMMON + ("twist", "direction", "target", "ramp", "kp", "ki", "max_speed"),
     "release": ("type", "name", "at"),
 }
 
@@ -110,6 +113,23 @@ def parse_waypoints(value, wpath: str) -> Waypoints:
         raise ConfigError(f"{wpath}.{exc.field}", error_message(exc)) from None
 
 
+def parse_rotation(value, rpath: str):
+    """A ``rotate_about = {axis, point, rate}`` table: a :class:`~knotsim.bc.rigid.Rotation`."""
+    from knotsim.bc.rigid import Rotation
+
+    r = as_table(value, rpath)
+    check_keys(r, rpath, ("axis", "point", "rate"))
+    axis = get_field(r, "axis", rpath, as_vec3)
+    rate = get_field(r, "rate", rpath, as_number)
+    point = r.get("point", "centroid")
+    if not (isinstance(point, str) and point == "centroid"):
+        point = as_vec3(point, f"{rpath}.point")
+    try:
+        return Rotation(axis, rate=rate, point=point)
+    except ConfigError as exc:
+        raise ConfigError(f"{rpath}.{exc.field}", error_message(exc)) from None
+
+
 def parse_bc(t, i: int) -> BCSpec:
     path = f"bc[{i}]"
     t = as_table(t, path)
@@ -139,8 +159,39 @@ def parse_bc(t, i: int) -> BCSpec:
     key_map: dict = {}
     if kind == "moment":
         kw["edges"] = get_field(t, "edges", path, as_index_spec)
+    elif kind == "ring_twist":
+        kw["node"] = get_field(t, "node", path, as_integer, 0)
+        for key in ("total", "rate"):
+            if key in t:
+                kw[key] = as_number(t[key], f"{path}.{key}")
+        return BCSpec(i, kind, name, kw, key_map)
     else:
         kw["nodes"] = get_field(t, "nodes", path, as_index_spec)
+    if kind == "spring":
+        kw["stiffness"] = get_field(t, "stiffness", path, as_number, positive=True)
+        if "velocity" in t and "waypoints" in t:
+            raise ConfigError(f"{path}.velocity", "give at most one of 'velocity' or 'waypoints' for the anchor")
+        if "velocity" in t:
+            kw["path"] = as_vec3(t["velocity"], f"{path}.velocity")
+            key_map["path"] = "velocity"
+        elif "waypoints" in t:
+            kw["path"] = parse_waypoints(t["waypoints"], f"{path}.waypoints")
+            key_map["path"] = "waypoints"
+        return BCSpec(i, kind, name, kw, key_map)
+    if kind == "load_cell":
+        kw["twist"] = get_field(t, "twist", path, as_bool, True)
+        kw["direction"] = get_field(t, "direction", path, as_vec3)
+        kw["ki"] = get_field(t, "ki", path, as_number, nonneg=True)
+        kw["kp"] = get_field(t, "kp", path, as_number, 0.0, nonneg=True)
+        kw["max_speed"] = get_field(t, "max_speed", path, as_number, None, positive=True)
+        if ("target" in t) == ("ramp" in t):
+            raise ConfigError(f"{path}.target", "give exactly one of 'target' (N, constant) or 'ramp'")
+        if "target" in t:
+            kw["target"] = as_number(t["target"], f"{path}.target")
+        else:
+            kw["target"] = _ramp(t["ramp"], f"{path}.ramp", ())
+            key_map["target"] = "ramp"
+        return BCSpec(i, kind, name, kw, key_map)
     if kind in ("clamp", "move"):
         kw["twist"] = get_field(t, "twist", path, as_bool, True)
     if kind in ("pin", "slide", "plane"):
@@ -150,12 +201,17 @@ def parse_bc(t, i: int) -> BCSpec:
             kw[key] = as_string(t[key], f"{path}.{key}") if kind == "pin" else as_vec3(t[key], f"{path}.{key}")
     if kind == "move":
         has_v, has_w = "velocity" in t, "waypoints" in t
-        if has_v == has_w:
+        if "rotate_about" in t:
+            kw["rotation"] = parse_rotation(t["rotate_about"], f"{path}.rotate_about")
+            key_map["rotation"] = "rotate_about"
+            if has_v and has_w:
+                raise ConfigError(f"{path}.velocity", "give at most one of 'velocity' or 'waypoints'")
+        elif has_v == has_w:
             raise ConfigError(f"{path}.velocity", "a moving group needs exactly one of 'velocity' or 'waypoints'")
         if has_v:
             kw["path"] = as_vec3(t["velocity"], f"{path}.velocity")
             key_map["path"] = "velocity"
-        else:
+        elif has_w:
             kw["path"] = parse_waypoints(t["waypoints"], f"{path}.waypoints")
             key_map["path"] = "waypoints"
     elif kind == "rotate":

@@ -1,0 +1,122 @@
+"""The implicit part of the boundary conditions: spring grips, and what the other feedback groups
+log (an :class:`~knotsim.solver.stepper.Interaction` named ``"bc"``).
+
+A spring grip ties each of its ``n`` nodes to its own anchor point (the node's position when the
+group activates, carried rigidly along the group's path) by a linear spring of stiffness ``k/n``
+(N/m): energy ``E = sum_i k/(2n) |x_i - a_i|^2`` (J), force on node ``i`` ``k/n (a_i - x_i)`` (N), total
+``F = k (a_bar - x_bar)`` (centroids). Its Jacobian ``k/n I_3`` per node enters Newton's matrix, so
+the grip is as implicit as the rod. :meth:`BoundaryConditions.interactions` returns this object
+whenever the model has spring, load-cell, ring-twist or turning groups; :class:`Simulation` adds it
+to its interactions by itself, and ``solve_static`` needs ``interactions=bcs.interactions()``.
+
+Logged per step (``stats``): spring ``<name>_fx, _fy, _fz`` (force of the spring on the rod, N),
+``<name>_force`` (its magnitude), ``<name>_anchor_x, _y, _z`` (anchor centroid, m) and
+``<name>_stretch`` (``|a_bar - x_bar|``, m); load cell ``<name>_displacement`` (m along its
+direction), ``<name>_target`` (N) and ``<name>_error`` (N); ring twist ``<name>_twist`` (rad
+injected) and ``<name>_moment`` (N m across the cut); turning grip ``<name>_angle`` (rad) and
+``<name>_mx, _my, _mz`` (N m, moment the grip exerts on the rod about its pivot).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from knotsim.rods.frames import compute_tangents, reference_twist, transport_directors
+
+
+class BCInteraction:
+    """Spring forces and feedback logs of a :class:`~knotsim.bc.BoundaryConditions`."""
+
+    name = "bc"
+
+    def __init__(self, bcs):
+        self.bcs = bcs
+        m = bcs.model
+        self.springs = [g for g in bcs.groups.values() if g.kind == "spring"]
+        self.rings = [g for g in bcs.groups.values() if g.kind == "ring_twist"]
+        rows = [m.node_dof[g.nodes][:, None] + np.arange(3)[None, :] for g in self.springs]
+        self._dofs = np.concatenate(rows).astype(np.int64) if rows else np.zeros((0, 3), np.int64)
+        self._blocks = np.zeros((self._dofs.shape[0], 3, 3))
+        self._eye = np.eye(3)
+        self._spring_force: dict[str, np.ndarray] = {}
+        self._ring_moment: dict[str, float] = {}
+        self._source = {}
+
+    # -- Interaction protocol ---------------------------------------------------------------
+    def begin_step(self, state_in, dt: float) -> None:
+        """Keep the frames of the ring cuts at the start of the step (to evaluate their twist)."""
+        for g in self.rings:
+            c = g.ring
+            e = list(c.edges)
+            self._source[g.name] = (state_in.d1[e].copy(), state_in.tangents[e].copy(),
+                                    state_in.ref_twist[[c.stencil]].copy())
+
+    def block_dofs(self) -> np.ndarray:
+        """``(k, 3)``: the position unknowns of every spring node (fixed for the whole run)."""
+        return self._dofs
+
+    def evaluate(self, q: np.ndarray, q_prev: np.ndarray, dt: float, residual: np.ndarray,
+                 want_jacobian: bool):
+        """Add ``-force`` of the active springs to ``residual``; energy (J) and ``(k, 3, 3)`` blocks
+        (``None`` when no spring acts)."""
+        self.bcs._interaction_seen = True
+        energy = 0.0
+        row = 0
+        any_active = False
+        if want_jacobian:
+            self._blocks[:] = 0.0
+        for g in self.springs:
+            n = len(g.nodes)
+            if g.target is not None:
+                any_active = True
+                kn = g.stiffness / n
+                dofs = self._dofs[row:row + n]
+                d = q[dofs] - g.target
+                energy += 0.5 * kn * float(np.sum(d * d))
+                residual[dofs] += kn * d  # a group's nodes are distinct
+                self._spring_force[g.name] = -kn * d.sum(axis=0)
+                if want_jacobian:
+                    self._blocks[row:row + n] = kn * self._eye
+            else:
+                self._spring_force[g.name] = np.zeros(3)
+            row += n
+        for g in self.rings:
+            self._ring_moment[g.name] = self._cut_moment(g, q)
+        return energy, (self._blocks if any_active and want_jacobian else None)
+
+    def check(self, q: np.ndarray) -> str | None:
+        return None
+
+    def stats(self) -> dict:
+        out = {}
+        for g in self.springs:
+            f = self._spring_force.get(g.name, np.zeros(3))
+            out[f"{g.name}_fx"], out[f"{g.name}_fy"], out[f"{g.name}_fz"] = (float(x) for x in f)
+            out[f"{g.name}_force"] = float(np.linalg.norm(f))
+            a = g.target.mean(axis=0) if g.target is not None else np.full(3, np.nan)
+            out[f"{g.name}_anchor_x"], out[f"{g.name}_anchor_y"], out[f"{g.name}_anchor_z"] = (float(x) for x in a)
+            out[f"{g.name}_stretch"] = float(np.linalg.norm(f)) / g.stiffness if g.target is not None else 0.0
+        for g in self.rings:
+            out[f"{g.name}_twist"] = float(g.ring.value)
+            out[f"{g.name}_moment"] = float(self._ring_moment.get(g.name, 0.0))
+        out.update(self.bcs.log_values)
+        return out
+
+    # -- helpers -------------------------------------------------------------------------------
+    def _cut_moment(self, g, q: np.ndarray) -> float:
+        """Twisting moment (N m) across the cut of ring group ``g`` at ``q``: ``GJ/l (m - mbar)``."""
+        src = self._source.get(g.name)
+        if src is None:
+            return 0.0
+        m = self.bcs.model
+        c = g.ring
+        e = list(c.edges)
+        tan = np.zeros((2, 3))
+        lens = np.zeros(2)
+        compute_tangents(q, m.edge_dofs[e], tan, lens)
+        d1 = np.zeros((2, 3))
+        transport_directors(src[0], src[1], tan, d1)
+        ref = np.zeros(1)
+        reference_twist(d1, tan, np.array([[0, 1]], np.int64), src[2], ref)
+        twist = q[m.edge_theta_dof[e[1]]] - q[m.edge_theta_dof[e[0]]] + ref[0]
+        return float(m.twist_GJ[c.stencil] / m.voronoi_rest[c.stencil] * (twist - m.twist_bar[c.stencil]))
