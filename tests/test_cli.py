@@ -66,7 +66,7 @@ def test_version(runner):
 def test_help_lists_commands(runner):
     res = runner.invoke(main, ["--help"])
     assert res.exit_code == 0
-    for cmd in ("run", "validate"):
+    for cmd in ("run", "validate", "warmup", "plot"):
         assert cmd in res.output
 
 
