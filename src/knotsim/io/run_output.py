@@ -4,8 +4,14 @@
 - ``trajectory.h5``: node positions, edge angles, velocities, reference directors and reference
   twist over time (format in ``docs/architecture.md``), appended as the run goes;
 - ``log.parquet``: one row per accepted step (time, dt, Newton iterations, residual, energies,
-  reaction force of each named boundary-condition group, contact statistics, stage);
-- ``run.json``: configuration (when known), knotsim version, wall time, outcome;
+  reaction force of each named boundary-condition group, contact statistics, stage), written at
+  the end; while the run goes the rows are appended to ``log.jsonl`` (JSON lines, flushed every
+  ``LOG_FLUSH_STEPS`` steps or ``LOG_FLUSH_SECONDS`` s of wall time, whichever comes first), which
+  is removed once ``log.parquet`` is written: after ``kill -9`` the rows up to the last flush are
+  in ``log.jsonl`` (:func:`read_log` reads either);
+- ``run.json``: configuration (when known), knotsim version, git commit of the knotsim source
+  (when it is a git checkout), wall time, outcome: written at the start with outcome
+  ``"running"``, updated at every log flush (steps, simulated time) and at the end;
 - ``run.toml``: the complete run description (when known), which ``knotsim run`` replays;
 - ``checkpoint.npz``: everything that decides the next step, at the end of the run (or at the
   last accepted step of a failed one): ``knotsim run --from DIR`` continues from it.
@@ -13,15 +19,53 @@
 
 from __future__ import annotations
 
+import json
 import platform
+import subprocess
 import time as _time
 from pathlib import Path
 
 import knotsim
-from knotsim._util.jsonio import write_json
+from knotsim._util.jsonio import json_safe, write_json
 from knotsim._util.toml import write_toml
 from knotsim.io.frame_fields import frame_field_names, frame_fields
 from knotsim.io.trajectory import TrajectoryWriter
+
+#: The per-step log side file is flushed after this many new rows ...
+LOG_FLUSH_STEPS = 16
+#: ... or after this much wall time (s) since the last flush, whichever comes first.
+LOG_FLUSH_SECONDS = 2.0
+LOG_SIDE_FILE = "log.jsonl"
+
+
+def git_commit() -> str | None:
+    """Commit of the knotsim source when it is a git checkout (``git rev-parse HEAD``, 5 s
+    timeout), else ``None``."""
+    pkg = Path(knotsim.__file__).resolve().parent
+    try:
+        out = subprocess.run(["git", "-C", str(pkg), "rev-parse", "HEAD"], capture_output=True, text=True,
+                             timeout=5)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out.stdout.strip() or None if out.returncode == 0 else None
+
+
+def read_log(run_dir):
+    """The per-step log of a run directory: ``log.parquet``, or for a run that was killed before
+    its end, the rows flushed to ``log.jsonl`` (pandas DataFrame; a torn last line is skipped)."""
+    import pandas as pd
+
+    d = Path(run_dir)
+    if (d / "log.parquet").is_file():
+        return pd.read_parquet(d / "log.parquet")
+    rows = []
+    with open(d / LOG_SIDE_FILE, encoding="utf-8") as fh:
+        for line in fh:
+            try:
+                rows.append(json.loads(line))
+            except json.JSONDecodeError:
+                break  # the process died in the middle of this line
+    return pd.DataFrame(rows)
 
 
 class RunOutput:
@@ -44,6 +88,47 @@ class RunOutput:
         self._rows_start = len(sim.rows)
         self.sim = sim
         self.started = _time.strftime("%Y-%m-%dT%H:%M:%S%z")
+        self._commit = git_commit()
+        self._t_start = float(sim.state.time)
+        self._wall0 = _time.perf_counter()
+        self._flushed = len(sim.rows)
+        self._last_flush = _time.perf_counter()
+        self._log_fh = open(self.dir / LOG_SIDE_FILE, "w", encoding="utf-8")
+        write_json(self.dir / "run.json", self._info("running"))
+
+    def _info(self, outcome: str) -> dict:
+        rows = self.sim.rows[self._rows_start:] if self._rows_start else self.sim.rows
+        return {
+            "knotsim_version": knotsim.__version__,
+            "git_commit": self._commit,
+            "outcome": outcome,
+            "wall_time_s": _time.perf_counter() - self._wall0,
+            "simulated_time_s": float(self.sim.state.time - self._t_start),
+            "steps": int(len(self.sim.rows)),
+            "newton_iterations": int(sum(r["iterations"] for r in rows)),
+            "step_failures": int(self.sim.n_failures),
+            "started": self.started,
+            "python": platform.python_version(),
+            "machine": platform.machine(),
+            "n_rods": int(self.model.n_rods),
+            "n_nodes": int(self.model.n_nodes),
+            "config": self.config,
+        }
+
+    def flush_log(self, force: bool = False) -> None:
+        """Append the new log rows to ``log.jsonl`` and refresh ``run.json`` when
+        ``LOG_FLUSH_STEPS`` rows are waiting or ``LOG_FLUSH_SECONDS`` s have passed (always with
+        ``force``)."""
+        rows = self.sim.rows
+        waiting = len(rows) - self._flushed
+        now = _time.perf_counter()
+        if waiting <= 0 or not (force or waiting >= LOG_FLUSH_STEPS or now - self._last_flush >= LOG_FLUSH_SECONDS):
+            return
+        self._log_fh.write("".join(json.dumps(json_safe(r)) + "\n" for r in rows[self._flushed:]))
+        self._log_fh.flush()
+        self._flushed = len(rows)
+        self._last_flush = now
+        write_json(self.dir / "run.json", self._info("running"))
 
     def frame(self, sim) -> None:
         st = sim.state
@@ -59,29 +144,22 @@ class RunOutput:
     def maybe_frame(self, sim) -> None:
         if self.interval is None or sim.state.time >= self._next - 1e-9 * self.interval:
             self.frame(sim)
+        self.flush_log()
 
     def close(self, outcome: str, wall_time: float, t_start: float) -> None:
         # the final state is always a frame, whatever the output interval
         if self._last_time is None or self.sim.state.time > self._last_time:
             self.frame(self.sim)
         self.writer.close()
+        self.flush_log(force=True)
+        self._log_fh.close()
         log = self.sim.log()
         log.to_parquet(self.dir / "log.parquet", index=False)
-        info = {
-            "knotsim_version": knotsim.__version__,
-            "outcome": outcome,
-            "wall_time_s": wall_time,
-            "simulated_time_s": float(self.sim.state.time - t_start),
-            "steps": int(len(log)),
-            "newton_iterations": int(log["iterations"].sum()) if len(log) else 0,
-            "step_failures": int(self.sim.n_failures),
-            "started": self.started,
-            "python": platform.python_version(),
-            "machine": platform.machine(),
-            "n_rods": int(self.model.n_rods),
-            "n_nodes": int(self.model.n_nodes),
-            "config": self.config,
-        }
+        (self.dir / LOG_SIDE_FILE).unlink(missing_ok=True)  # compacted into log.parquet
+        info = self._info(outcome)
+        info["wall_time_s"] = wall_time
+        info["simulated_time_s"] = float(self.sim.state.time - t_start)
+        info["newton_iterations"] = int(log["iterations"].sum()) if len(log) else 0
         self.sim.save_checkpoint(self.dir / "checkpoint.npz")
         if self.config is not None:
             write_toml(self.dir / "run.toml", self.config,

@@ -362,8 +362,12 @@ class StudyStore:
 
         df = results_frame(cases, records)
         tmp = self.results_file.with_name(f".results.{uuid.uuid4().hex[:6]}.parquet")
-        df.to_parquet(tmp, index=False)
-        os.replace(tmp, self.results_file)
+        try:
+            df.to_parquet(tmp, index=False)
+            os.replace(tmp, self.results_file)
+        except BaseException:  # a full disk must not leave a half-written temporary file behind
+            tmp.unlink(missing_ok=True)
+            raise
         return pd.read_parquet(self.results_file)
 
 

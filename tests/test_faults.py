@@ -1,0 +1,85 @@
+"""Faults of a run: SIGTERM and kill -9 lose nothing beyond the last log flush; operating-system
+errors are one-line errors."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from knotsim.io.run_output import LOG_FLUSH_SECONDS, read_log
+from knotsim.study.spec import dumps_toml
+
+RUN = {
+    "rods": [{"name": "rope", "shape": "straight", "length": 0.1, "n_nodes": 11, "radius": 1e-3,
+              "youngs_modulus": 1e7, "density": 1000.0}],
+    "bc": [{"type": "move", "name": "left", "nodes": [0, 1], "velocity": [-1e-4, 0.0, 0.0]},
+           {"type": "move", "name": "right", "nodes": [-2, -1], "velocity": [1e-4, 0.0, 0.0]}],
+    "solver": {"dt": 1e-3},
+    "run": {"duration": 1000.0, "output_interval": 0.05},
+}
+
+
+def _start(tmp_path: Path) -> tuple[subprocess.Popen, Path]:
+    cfg = tmp_path / "run.toml"
+    cfg.write_text(dumps_toml(RUN))
+    out = tmp_path / "out"
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    proc = subprocess.Popen([sys.executable, "-m", "knotsim.cli", "run", str(cfg), "-o", str(out)], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t0 = time.monotonic()
+    side = out / "log.jsonl"
+    while time.monotonic() - t0 < 120:  # until a few flushes went out
+        if side.is_file() and sum(1 for _ in side.open()) >= 40:
+            break
+        if proc.poll() is not None:
+            pytest.fail(f"the run ended early: {proc.communicate()}")
+        time.sleep(0.05)
+    return proc, out
+
+
+def test_sigterm_writes_log_run_json_and_checkpoint(tmp_path):
+    proc, out = _start(tmp_path)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert "Traceback" not in err and "SIGTERM" in err
+    info = json.loads((out / "run.json").read_text())
+    assert info["outcome"] == "interrupted" and info["steps"] >= 40
+    log = read_log(out)
+    assert len(log) == info["steps"] and (out / "log.parquet").is_file()
+    assert not (out / "log.jsonl").exists()  # compacted
+    assert (out / "checkpoint.npz").is_file()
+
+
+def test_kill9_keeps_the_rows_up_to_the_last_flush_and_run_json(tmp_path):
+    proc, out = _start(tmp_path)
+    time.sleep(LOG_FLUSH_SECONDS + 0.5)
+    proc.send_signal(signal.SIGKILL)
+    proc.communicate(timeout=60)
+    info = json.loads((out / "run.json").read_text())
+    assert info["outcome"] == "running" and info["steps"] >= 40
+    assert "git_commit" in info
+    log = read_log(out)  # from log.jsonl: no log.parquet after kill -9
+    assert not (out / "log.parquet").exists()
+    assert len(log) >= info["steps"] and log["time"].is_monotonic_increasing
+    assert {"time", "dt", "iterations", "left_fx"} <= set(log.columns)
+
+
+def test_output_under_a_regular_file_is_a_one_line_error(tmp_path):
+    cfg = tmp_path / "run.toml"
+    run = dict(RUN, run={"duration": 0.01})
+    cfg.write_text(dumps_toml(run))
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    res = subprocess.run([sys.executable, "-m", "knotsim.cli", "run", str(cfg), "-o", str(blocker / "out")],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 2, res.stderr
+    assert "Traceback" not in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    assert "not a directory" in res.stderr
