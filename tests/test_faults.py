@@ -83,3 +83,24 @@ def test_output_under_a_regular_file_is_a_one_line_error(tmp_path):
     assert res.returncode == 2, res.stderr
     assert "Traceback" not in res.stderr and len(res.stderr.strip().splitlines()) == 1
     assert "not a directory" in res.stderr
+
+
+@pytest.mark.parametrize("key,value", [("pull_speed", 0.0), ("pull_speed", -1e-3), ("mean_window", -1.0),
+                                       ("dt", float("nan")), ("mu", -0.1), ("n_nodes", 2.5)])
+def test_protocol_parameters_are_checked_under_their_own_name_before_running(key, value):
+    from knotsim.errors import ConfigError
+    from knotsim.protocols.params import COMMON_DEFAULTS, resolve_params
+
+    defaults = {**COMMON_DEFAULTS, "pull_speed": 1e-3, "mean_window": 1.0}
+    resolve_params(defaults)  # the defaults themselves are in range
+    with pytest.raises(ConfigError) as info:
+        resolve_params(defaults, {key: value})
+    assert info.value.field == key and "--set" in str(info.value)
+
+
+def test_every_protocol_default_is_in_range():
+    from knotsim.protocols.params import check_param_ranges, protocol_defaults
+    from knotsim.protocols.registry import protocols
+
+    for proto in protocols().values():
+        check_param_ranges(protocol_defaults(proto))

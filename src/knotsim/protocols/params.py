@@ -75,6 +75,51 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "slip_hold": ("s", "two-rope bend: how long the fast draw-in must last to count as a slip"),
 }
 
+#: Allowed range of numeric protocol parameters, checked by :func:`check_param_ranges` before
+#: anything runs: ``">0"`` positive, ``">=0"`` non-negative, ``"int>=1"`` positive integer,
+#: ``"int>=3"``, ``"poisson"`` in (-1, 0.5]. ``None`` values (decided by the protocol) are not
+#: checked; keys not listed only need to be finite.
+PARAM_RANGES: dict[str, str] = {
+    "n_nodes": "int>=3", "radius": ">0", "length": ">0", "youngs_modulus": ">0", "density": ">0",
+    "poisson_ratio": "poisson", "damping": ">=0", "mu": ">=0", "dt": ">0", "duration": ">0",
+    "output_interval": ">0", "geometry_scale": ">0", "pull_speed": ">0", "e_final": ">0",
+    "mean_window": ">0", "hold_time": ">=0", "hold_nodes": "int>=1", "pre_pull": ">=0",
+    "pre_pull_speed": ">0", "transient": ">=0", "loose_factor": ">0", "pull_length": ">0",
+    "pre_tighten": ">=0", "pre_tighten_speed": ">0", "force_rate": ">0", "runaway_speed": ">0",
+    "slip_draw_in_rate": ">0", "slip_hold": ">=0",
+}
+_RANGE_TEXT = {">0": "a positive number", ">=0": "a non-negative number", "int>=1": "a positive integer",
+               "int>=3": "an integer >= 3", "poisson": "a number in (-1, 0.5]"}
+
+
+def check_param_ranges(values: Mapping[str, Any]) -> None:
+    """Raise :class:`ConfigError` naming the first parameter of ``values`` outside its range
+    (:data:`PARAM_RANGES`; non-finite numbers are always refused)."""
+    import math
+
+    for key, v in values.items():
+        if v is None or isinstance(v, bool | str) or not isinstance(v, int | float | np.integer | np.floating):
+            continue
+        rule = PARAM_RANGES.get(key)
+        if not math.isfinite(v):
+            ok = False
+        elif rule is None:
+            ok = True
+        elif rule == ">0":
+            ok = v > 0
+        elif rule == ">=0":
+            ok = v >= 0
+        elif rule == "poisson":
+            ok = -1.0 < v <= 0.5
+        else:
+            ok = float(v).is_integer() and v >= int(rule[5:])
+        if not ok:
+            unit = PARAM_INFO.get(key, ("", ""))[0]
+            unit = f" ({unit})" if unit not in ("", "-", "text") else ""
+            raise ConfigError(key, f"must be {_RANGE_TEXT.get(rule, 'a finite number')}{unit}, got {v!r}; "
+                                   f"set it with --set {key}=VALUE")
+
+
 _CONTACT_KEYS = None
 _SOLVER_KEYS = None
 
@@ -220,6 +265,7 @@ def resolve_params(defaults: Mapping[str, Any], *layers: Mapping[str, Any] | Non
             else:
                 raise ConfigError(key, f"unknown parameter; known: {', '.join(sorted(values))}, "
                                        "contact.<setting>, solver.<setting>")
+    check_param_ranges(values)
     return Params(values, contact, solver)
 
 
