@@ -33,7 +33,7 @@ _LAZY = {
     "RodSpec": "knotsim.rods", "Model": "knotsim.rods", "State": "knotsim.solver.state",
     # boundary conditions
     "BoundaryConditions": "knotsim.bc", "Waypoints": "knotsim.bc", "ConstantVelocity": "knotsim.bc",
-    "FunctionPath": "knotsim.bc",
+    "FunctionPath": "knotsim.bc", "Rotation": "knotsim.bc",
     # contact
     "Contact": "knotsim.contact.model", "ContactOptions": "knotsim.contact.model",
     "StiffnessMode": "knotsim.contact.model", "LinearSolver": "knotsim.solver.stepper",

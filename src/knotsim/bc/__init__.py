@@ -1,6 +1,8 @@
-"""Boundary conditions: clamp, hold, move, rotate, release, forces; reaction forces."""
+"""Boundary conditions: clamp, hold, move (and turn), rotate, pin, release, forces, springs, load
+cells, ring twist; reaction forces."""
 
 from knotsim.bc.conditions import BoundaryConditions, Group
 from knotsim.bc.paths import ConstantVelocity, FunctionPath, Path, Waypoints
+from knotsim.bc.rigid import Rotation
 
-__all__ = ["BoundaryConditions", "ConstantVelocity", "FunctionPath", "Group", "Path", "Waypoints"]
+__all__ = ["BoundaryConditions", "ConstantVelocity", "FunctionPath", "Group", "Path", "Rotation", "Waypoints"]
