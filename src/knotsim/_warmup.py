@@ -9,9 +9,10 @@ about half, the elastic energies, the sparse LU and the knot-diagram kernels the
 
 :func:`kernels_cached` tells, from numba's cache index files of a few kernels that every run of
 that kind compiles, whether a run would start by compiling. :func:`warm_up` compiles the kernels
-of a contact run of a small knot: the contact and topology kernels in a second process while this
-one compiles the elastic and solver kernels (two cores: the two halves at the same time), so that
-a run afterwards loads everything from the cache. Library code: nothing here prints.
+of a contact run of a small knot: the contact kernels in a second process while this one compiles
+the elastic, solver and topology kernels (two cores: the two halves, of about equal CPU time, at the
+same time), so that a run afterwards loads everything from the cache. Library code: nothing here
+prints.
 """
 
 from __future__ import annotations
@@ -124,19 +125,23 @@ def _warm_run() -> None:
 
 
 _PARTS = {"core": _warm_core, "contact": _warm_contact, "topology": _warm_topology, "run": _warm_run}
-#: What the second process compiles (in this order) while the first compiles ``core``: the contact
-#: and topology kernels, then a few steps of the contact run, by when ``core`` is in the cache, so
-#: that the steps compile only what is left (contact pattern merging, nodal force summaries).
-_SECOND = ("contact", "topology", "run")
+#: What the second process compiles (in this order) while the first compiles ``core`` and
+#: ``topology``: the contact kernels, then a few steps of the contact run, by when ``core`` is in
+#: the cache, so that the steps compile only what is left (contact pattern merging, nodal force
+#: summaries).
+_SECOND = ("contact", "run")
+#: What this process compiles meanwhile (CPU time about equal to the other side's).
+_FIRST = ("core", "topology")
 
 
 def warm_up(parallel: bool = True) -> dict[str, float]:
     """Compile every kernel a contact run needs; returns wall times (s) of the parts ``core``
     (elastic energies, stepper, linear solvers), ``contact``, ``topology`` and ``run`` (a few steps
     of a small contact run, compiling what is left), each measured in the process that ran it,
-    their CPU times ``cpu.<part>`` (s) and the wall time ``total``. With ``parallel`` a second Python process compiles ``contact``, ``topology`` and
-    ``run`` while this one compiles ``core`` (falling back to this process if that one fails); the
-    compiled code reaches this process through numba's cache, and a final ``run`` here loads it."""
+    their CPU times ``cpu.<part>`` (s) and the wall time ``total``. With ``parallel`` a second
+    Python process compiles :data:`_SECOND` while this one compiles :data:`_FIRST` (falling back
+    to this process if that one fails); the compiled code reaches this process through numba's
+    cache, and a final ``run`` here loads it."""
     t0 = time.perf_counter()
     times: dict[str, float] = {}
     child = None
@@ -145,9 +150,10 @@ def warm_up(parallel: bool = True) -> dict[str, float]:
                    OPENBLAS_NUM_THREADS=os.environ.get("OPENBLAS_NUM_THREADS", "1"))
         child = subprocess.Popen([sys.executable, "-m", "knotsim._warmup", *_SECOND], env=env,
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    t, c = time.perf_counter(), time.process_time()
-    _warm_core()
-    times["core"], times["cpu.core"] = time.perf_counter() - t, time.process_time() - c
+    for part in _FIRST:
+        t, c = time.perf_counter(), time.process_time()
+        _PARTS[part]()
+        times[part], times[f"cpu.{part}"] = time.perf_counter() - t, time.process_time() - c
     done: dict[str, float] = {}
     if child is not None:
         out, _ = child.communicate()
