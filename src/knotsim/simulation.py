@@ -48,6 +48,8 @@ class Simulation:
         self._before_short_step = None
         #: end time (s) a restored checkpoint's run was asked to reach (see :meth:`run`)
         self._continue_end: float | None = None
+        #: the running sum of steps before it was set to the requested end time (see :meth:`advance`)
+        self._unsnapped_time: float | None = None
         self.rows: list[dict] = []
         self.n_failures = 0
         #: ``[(name, t_start, t_end), ...]`` (s): stages of the run description; each log row names
@@ -127,6 +129,7 @@ class Simulation:
             if self.state.time >= t_end - eps:
                 # time is a running sum of steps: land exactly on the requested end time, so that a
                 # continued run starts at t_end and its own end time is not off by round-off
+                self._unsnapped_time = self.state.time
                 self.state.time = t_end
                 res.time = t_end
                 self.rows[-1]["time"] = t_end
@@ -209,11 +212,17 @@ class Simulation:
         The current state, unless the last step was shortened to land on the requested end time:
         then the state just before that step, so that a continued run takes the same steps as an
         uninterrupted one (a run of 2T and a run of T continued for T end in the same state).
-        ``end_time`` is the time the run reached (s)."""
+        ``end_time`` is the time the run reached (s). The state keeps the time as the running sum of
+        its steps (before the run landed it exactly on ``end_time``), so that time-dependent
+        boundary conditions see the same times in the continued run as in an uninterrupted one."""
         if self._before_short_step is not None:
             state, comps = self._before_short_step
             return state, comps, float(self.state.time)
-        return self.state, self.component_states(), float(self.state.time)
+        state = self.state
+        if self._unsnapped_time is not None and abs(self._unsnapped_time - state.time) < 1e-9:
+            state = state.copy()
+            state.time = self._unsnapped_time
+        return state, self.component_states(), float(self.state.time)
 
     def save_checkpoint(self, path) -> None:
         """Write everything that decides the next step to ``path`` (see :mod:`knotsim.io.checkpoint`)."""
