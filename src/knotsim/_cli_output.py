@@ -89,14 +89,18 @@ def prepare_output(outdir: Path | None, default: Path, overwrite: bool) -> Path:
 
 
 def announce_compile(contact: bool = True, topology: bool = True) -> None:
-    """When the kernels a run needs are not in numba's cache yet: say so on stderr, compile them
-    (:func:`knotsim._warmup.warm_up`, two processes) and say how long it took."""
-    from knotsim._warmup import kernels_cached, warm_up
+    """When the kernels a run needs are not in numba's cache yet, say so on stderr before anything
+    compiles. With a spare CPU (:func:`knotsim._warmup.spare_cores`) compile them first in two
+    processes (:func:`knotsim._warmup.warm_up`) and say how long it took; on a busy machine the run
+    compiles them as it goes (a second process would only add CPU time)."""
+    from knotsim._warmup import kernels_cached, spare_cores, warm_up
 
     if kernels_cached(contact=contact, topology=topology):
         return
-    click.echo("note: compiling the numerical kernels for the first time: about 100 s of CPU time, 1-3 minutes "
-               "on a 2-core machine depending on its load (2 processes); cached for later runs; "
-               "`knotsim warmup` does this ahead ...", err=True)
-    times = warm_up(parallel=True)
-    click.echo(f"note: kernels compiled in {times['total']:.0f} s", err=True)
+    parallel = spare_cores() >= 1.0
+    click.echo("note: compiling the numerical kernels for the first time: about 80-100 s of CPU time"
+               + (", in 2 processes" if parallel else " (the machine is busy: in this process, as the run goes)")
+               + "; cached for later runs; `knotsim warmup` does this ahead ...", err=True)
+    if parallel:
+        times = warm_up(parallel=True)
+        click.echo(f"note: kernels compiled in {times['total']:.0f} s", err=True)

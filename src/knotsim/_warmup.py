@@ -23,7 +23,7 @@ import subprocess
 import sys
 import time
 
-__all__ = ["kernels_cached", "uncached_kernels", "warm_up"]
+__all__ = ["kernels_cached", "spare_cores", "uncached_kernels", "warm_up"]
 
 #: Kernels every run of a kind compiles (module, function): if all are cached, the rest are too.
 SENTINELS: dict[str, tuple[tuple[str, str], ...]] = {
@@ -62,6 +62,16 @@ def kernels_cached(contact: bool = True, topology: bool = True) -> bool:
     compiled in numba's cache."""
     groups = ["core"] + (["contact"] if contact else []) + (["topology"] if topology else [])
     return not uncached_kernels(groups)
+
+
+def spare_cores() -> float:
+    """CPUs not busy over the last minute (``os.cpu_count()`` minus the 1-min load average, >= 0):
+    a second compiling process only pays off when this is at least 1 (on a busy machine it adds
+    CPU time, about 25 %, without shortening the wall time)."""
+    try:
+        return max(0.0, float(os.cpu_count() or 1) - os.getloadavg()[0])
+    except (OSError, AttributeError):  # no load average on this platform
+        return 0.0
 
 
 def _small_run_spec(contact: bool, linear_solver: str = "auto"):

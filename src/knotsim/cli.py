@@ -204,14 +204,17 @@ def validate(cases: tuple[str, ...], quick: bool, json_only: bool):
 
 # ------------------------------------------------------------------------------------------ warmup
 @main.command()
-@click.option("--serial", is_flag=True, help="Compile in this process only (default: two processes).")
+@click.option("--serial/--parallel", default=None,
+              help="One process, or two at the same time (default: two when a CPU is spare).")
 @_exit_codes
-def warmup(serial: bool):
+def warmup(serial: bool | None):
     """Compile every numerical kernel now (numba, cached for later runs) and report the time.
 
-    The first run of a command would otherwise start with this (about a minute on 2 cores)."""
-    from knotsim._warmup import kernels_cached, warm_up
+    The first run of a command would otherwise start with this (80-100 s of CPU time)."""
+    from knotsim._warmup import kernels_cached, spare_cores, warm_up
 
+    if serial is None:
+        serial = spare_cores() < 1.0
     was = kernels_cached()
     click.echo("compiling the numerical kernels (a small contact run)" + ("" if serial else ", 2 processes")
                + ("; they are cached already, this checks and loads them" if was else "") + " ...", err=True)
