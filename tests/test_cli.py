@@ -290,3 +290,35 @@ def test_validate_quick_real_cases_all_pass(runner):
     assert data["passed"] and not failed, failed
     assert {c["case"] for c in data["cases"]} >= {"cantilever", "helix", "contact", "overhand_tightening",
                                                    "single_rod_bend", "bends"}
+
+
+def test_kernels_cached_reads_numba_cache_index(tmp_path):
+    """An empty NUMBA_CACHE_DIR means not cached (checked in a fresh process, nothing compiled)."""
+    import os
+    import subprocess
+
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    out = subprocess.run([sys.executable, "-c", "from knotsim._warmup import kernels_cached as k; "
+                          "print(k(), k(contact=False, topology=False))"],
+                         env=env, capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["False", "False"]
+    assert not list(tmp_path.rglob("*.nbi"))  # the check compiles nothing
+
+
+@pytest.mark.parametrize("spare", [0.0, 1.5])
+def test_compile_notice_before_compiling(monkeypatch, capsys, spare):
+    import knotsim._warmup as W
+    from knotsim._cli_output import announce_compile
+
+    calls = []
+    monkeypatch.setattr(W, "kernels_cached", lambda **kw: False)
+    monkeypatch.setattr(W, "spare_cores", lambda: spare)
+    monkeypatch.setattr(W, "warm_up", lambda parallel: calls.append(parallel) or {"total": 12.0})
+    announce_compile()
+    err = capsys.readouterr().err
+    assert err.startswith("note: compiling the numerical kernels for the first time")
+    assert calls == ([True] if spare >= 1 else [])
+    assert ("kernels compiled in 12 s" in err) == (spare >= 1)
+    monkeypatch.setattr(W, "kernels_cached", lambda **kw: True)
+    announce_compile()
+    assert capsys.readouterr().err == ""
