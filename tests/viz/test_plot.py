@@ -30,6 +30,15 @@ def test_single_rod_window_and_onset_in_run_time(tmp_path):
     assert P._onsets(s["metrics"], P._offset(s["metrics"])) == [("slip onset", 1.5, 1.9)]
 
 
+def test_peak_window_is_where_the_protocol_takes_its_peak():
+    s = {"protocol": "single-rod-bend", "parameters": {"mean_window": 2.0, "transient": 1.0},
+         "metrics": {"pre_pull_time": 0.5}}
+    assert P._peak_window(s, 4.0) == (1.5, 2.5)
+    assert P._peak_window({"protocol": "two-rope-bend", "parameters": {"transient": 0.3},
+                           "metrics": {"pre_tighten_time": 1.0}}, 3.0) == (1.0, 3.0)
+    assert P._peak_window({"protocol": "overhand-pull", "parameters": {}, "metrics": {}}, 3.0) == (0.0, 3.0)
+
+
 def test_two_rope_window_after_transient_and_overhand_none():
     s = {"protocol": "two-rope-bend", "parameters": {"transient": 0.3},
          "metrics": {"pre_tighten_time": 1.0, "force_drop_onset": None, "slip_onset": {"time": 0.7}}}

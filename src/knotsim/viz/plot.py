@@ -7,8 +7,9 @@ parameters, metrics). It draws
 
 - the force against time, with the protocol's measuring window shaded (single-rod bend: the mean
   window ``[t_pre, t_pre + mean_window]``; two-rope bend: after the start-up ``transient``), the
-  peak of the force in that window (a dot) and the slip onset or force drop (a dashed vertical
-  line at its time, the running-maximum force marked);
+  peak where the protocol takes ``F_norm_peak`` (a dot; single-rod bend: the mean window after its
+  ``transient``) and the slip onset or force drop (a dashed vertical line at its time, the
+  running-maximum force marked);
 - when the protocol logs one, the force against the end-to-end geometry: the shortening ``e``
   (m, overhand pull), the end-to-end distance (m, single-rod bend) or the pulled-end displacement
   ``u_pull`` (m, two-rope bend), with the same peak and onset marked and, for the overhand pull,
@@ -73,6 +74,17 @@ def _window(summary: dict, t_end: float) -> tuple[str, float, float] | None:
     if proto == "two-rope-bend" and params.get("transient") is not None:
         return "after the start-up transient", off + float(params["transient"]), t_end
     return None
+
+
+def _peak_window(summary: dict, t_end: float) -> tuple[float, float]:
+    """``(t0, t1)`` (s of run time) over which the protocol takes its ``F_norm_peak``: single-rod
+    bend after the start-up ``transient`` of the mean window, two-rope bend the pull after any
+    cinching stage, otherwise the whole run."""
+    params = summary.get("parameters") or {}
+    off = _offset(summary.get("metrics") or {})
+    if summary.get("protocol") == "single-rod-bend" and params.get("mean_window") is not None:
+        return off + float(params.get("transient") or 0.0), min(off + float(params["mean_window"]), t_end)
+    return off, t_end
 
 
 def _onsets(metrics: dict, off: float) -> list[tuple[str, float, float | None]]:
@@ -144,15 +156,14 @@ def plot_run(run_dir: str | os.PathLike, out: str | os.PathLike | None = None) -
     ax_t = axes[0, 0]
     ax_t.plot(t, y, color="tab:blue", lw=1.2, label=ylabel)
     win = _window(summary, float(t[-1]))
-    sel = np.ones(t.size, bool)
     if win is not None:
         label, t0, t1 = win
         ax_t.axvspan(t0, t1, color="tab:green", alpha=0.12, label=label)
-        sel = (t >= t0 - 1e-9) & (t <= t1 + 1e-9)
     off = _offset(metrics)
     if off > 0:
         ax_t.axvline(off, color="0.5", lw=0.8, ls=":", label="end of pre-tightening")
-        sel &= t >= off - 1e-9
+    p0, p1 = _peak_window(summary, float(t[-1]))
+    sel = (t >= p0 - 1e-9) & (t <= p1 + 1e-9)
     k_peak = None
     if sel.any() and np.isfinite(y[sel]).any():
         idx = np.flatnonzero(sel)
