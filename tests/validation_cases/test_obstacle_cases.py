@@ -24,6 +24,6 @@ def test_capstan_rope_wraps_the_post_by_k_pi(k):
     assert np.linalg.norm(tangent) == pytest.approx(1.0)
 
 
-def test_capstan_and_euler_cases_pass_quick():
-    rows = CASES["capstan"](True) + CASES["euler_pinned"](True)
+def test_capstan_euler_and_floor_cases_pass_quick():
+    rows = CASES["capstan"](True) + CASES["euler_pinned"](True) + CASES["floor_friction"](True)
     assert rows and all(r["passed"] for r in rows), rows

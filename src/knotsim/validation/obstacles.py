@@ -11,6 +11,10 @@
   ``1 / (1 − P/P_cr)``; the critical load estimated from the amplification at P = 0.9 P_cr is
   ``π² EI / L²`` within 1 %; past it (1.2 P_cr) :func:`~knotsim.solver.static.solve_static` reports the
   straight equilibrium unstable.
+- ``floor_friction``: a rope (h = 1 mm, 0.2 m) resting on a frictional floor (μ = 0.4) under gravity:
+  dragged by one end at 1 cm/s, the floor's reaction has tangential/normal = μ within 2 % while it
+  slides; pushed by a constant force of 0.5 μ m g it sticks (mean speed below 1e-4 m/s, the creep of
+  the regularized Coulomb law), by 1.5 μ m g it slides (above 1e-3 m/s).
 """
 
 from __future__ import annotations
@@ -124,4 +128,54 @@ def euler_pinned(quick: bool = False) -> list[dict]:
     rows.append(_row("euler_pinned", "straight column at 1.2 P_cr reported unstable (lowest eigenvalue < 0)",
                      float(r2.stable is False), 1.0, 0.0 if r2.stable is False else 1.0, 0.0,
                      time.perf_counter() - t0))
+    return rows
+
+
+def _floor_rope(mu: float, mass_out: list | None = None):
+    import knotsim as ks
+
+    n, length, h, rho = 41, 0.2, 1e-3, 1300.0
+    x = np.zeros((n, 3))
+    x[:, 0] = np.linspace(0.0, length, n)
+    x[:, 2] = h + 2e-4
+    rope = ks.RodSpec(x, radius=h, youngs_modulus=1e7, density=rho)
+    model = ks.Model([rope], gravity=(0.0, 0.0, -9.81), damping=0.01)
+    floor = ks.Plane(model, "floor", point=(0, 0, 0), normal=(0, 0, 1), mu=mu)
+    if mass_out is not None:
+        mass_out.append(rho * math.pi * h * h * length)
+    return ks, model, floor
+
+
+def floor_friction(quick: bool = False) -> list[dict]:
+    """A rope on a frictional floor (μ = 0.4): dragged by one end at 1 cm/s, the floor's reaction
+    while it slides has tangential/normal = μ (2 %); pushed by a force of 0.5 μ m g it sticks (mean
+    speed below 1 % of the drag speed), by 1.5 μ m g it slides."""
+    mu = 0.4
+    rows = []
+    t0 = time.perf_counter()
+    ks, model, floor = _floor_rope(mu)
+    bcs = ks.BoundaryConditions(model)
+    bcs.move("drag", rod=0, nodes=[-1], path=ks.Waypoints([0.0, 0.3], [[0, 0, 0], [0, 0, 0]],
+                                                          then_velocity=[0.01, 0.0, 0.0]), twist=False)
+    log = ks.Simulation(model, bcs, ks.SolverOptions(dt=2e-3), interactions=[floor]).run(1.5)
+    late = log[log["time"] > 0.9]
+    ratio = float(np.mean(np.abs(late["floor_fx"]) / np.abs(late["floor_fz"])))
+    rows.append(_row("floor_friction", "sliding: floor tangential / normal force (mu = 0.4)", ratio, mu,
+                     ratio / mu - 1.0, 0.02, time.perf_counter() - t0))
+    for factor, sticks in ((0.5, True), (1.5, False)):
+        t0 = time.perf_counter()
+        mass: list = []
+        ks, model, floor = _floor_rope(mu, mass)
+        f = factor * mu * mass[0] * 9.81
+        bcs = ks.BoundaryConditions(model)
+        bcs.force("push", rod=0, nodes=[-1], force=[f, 0.0, 0.0])
+        sim = ks.Simulation(model, bcs, ks.SolverOptions(dt=2e-3), interactions=[floor])
+        sim.run(0.5)
+        x0 = float(np.mean(model.node_positions(sim.state.q)[:, 0]))
+        sim.run(0.5)
+        speed = (float(np.mean(model.node_positions(sim.state.q)[:, 0])) - x0) / 0.5
+        ok = speed < 1e-4 if sticks else speed > 1e-3
+        rows.append(_row("floor_friction", f"pushed by {factor:g} mu m g: centroid speed (m/s), "
+                         f"{'sticks < 1e-4' if sticks else 'slides > 1e-3'}", speed, 1e-4 if sticks else 1e-3,
+                         0.0 if ok else 1.0, 0.0, time.perf_counter() - t0, passed=ok))
     return rows
