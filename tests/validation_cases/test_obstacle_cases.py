@@ -25,5 +25,5 @@ def test_capstan_rope_wraps_the_post_by_k_pi(k):
 
 
 def test_capstan_euler_and_floor_cases_pass_quick():
-    rows = CASES["capstan"](True) + CASES["euler_pinned"](True) + CASES["floor_friction"](True)
+    rows = CASES["capstan"](True) + CASES["euler_pinned"](True) + CASES["floor_friction"](True) + CASES["michell"](True)
     assert rows and all(r["passed"] for r in rows), rows

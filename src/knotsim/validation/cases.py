@@ -16,7 +16,7 @@ from knotsim.validation.cantilever import LARGE_DEFLECTION_TIP, tip_position
 from knotsim.validation.contact import contact_cases
 from knotsim.validation.helix import helix_equilibrium, helix_reference
 from knotsim.validation.knots import overhand_tightening
-from knotsim.validation.obstacles import capstan, euler_pinned, floor_friction
+from knotsim.validation.obstacles import capstan, euler_pinned, floor_friction, michell
 from knotsim.validation.single_rod import single_rod_bend
 
 
@@ -78,7 +78,8 @@ CASES: dict[str, Callable[[bool], list[dict]]] = {"cantilever": cantilever, "hel
                                                   "overhand_tightening": overhand_tightening,
                                                   "single_rod_bend": single_rod_bend,
                                                   "bends": bends, "capstan": capstan,
-                                                  "euler_pinned": euler_pinned, "floor_friction": floor_friction}
+                                                  "euler_pinned": euler_pinned, "floor_friction": floor_friction,
+                                                  "michell": michell}
 
 
 def run_cases(names=None, quick: bool = False, progress: bool = False) -> list[dict]:

@@ -15,6 +15,7 @@
   dragged by one end at 1 cm/s, the floor's reaction has tangential/normal = μ within 2 % while it
   slides; pushed by a constant force of 0.5 μ m g it sticks (mean speed below 1e-4 m/s, the creep of
   the regularized Coulomb law), by 1.5 μ m g it slides (above 1e-3 m/s).
+- ``michell``: a closed ring twisted at a cut loses its planar stability at 2π√3(1 + ν) (2 %).
 """
 
 from __future__ import annotations
@@ -179,3 +180,41 @@ def floor_friction(quick: bool = False) -> list[dict]:
                          f"{'sticks < 1e-4' if sticks else 'slides > 1e-3'}", speed, 1e-4 if sticks else 1e-3,
                          0.0 if ok else 1.0, 0.0, time.perf_counter() - t0, passed=ok))
     return rows
+
+
+def michell(quick: bool = False) -> list[dict]:
+    """Michell's instability: a closed ring (R = 5 cm, h = 1 mm, ν = 0.5, N = 48), its rigid motions
+    and frame gauge removed by statically determinate pins, twisted at a cut
+    (:meth:`~knotsim.bc.BoundaryConditions.ring_twist`): the planar equilibrium loses stability (the
+    lowest eigenvalue of the static Hessian changes sign) at the total twist 2π√3(1 + ν), found by
+    bisection, within 2 %."""
+    import knotsim as ks
+    from knotsim.bc.feedback import michell_twist
+
+    n, radius = 48, 0.05
+    phi = 2 * np.pi * np.arange(n) / n
+    x = np.stack([radius * np.cos(phi), radius * np.sin(phi), 0 * phi], 1)
+    rod = ks.RodSpec(x, radius=1e-3, youngs_modulus=1e6, density=1000.0, poisson_ratio=0.5, closed=True,
+                     name="ring")
+    model = ks.Model([rod], damping=0.01)
+    tw_c = michell_twist(rod)
+
+    def stable(fraction: float) -> bool:
+        b = ks.BoundaryConditions(model)
+        b.pin("a", rod=0, nodes=[0], twist=True)
+        b.pin("b", rod=0, nodes=[n // 2], axes="yz")
+        b.pin("c", rod=0, nodes=[n // 4], axes="z")
+        b.ring_twist("tw", rod=0, total=fraction * tw_c)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return bool(ks.solve_static(model, b, time=1.0, interactions=b.interactions()).stable)
+
+    t0 = time.perf_counter()
+    lo, hi = 0.8, 1.2
+    for _ in range(5 if quick else 8):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if stable(mid) else (lo, mid)
+    est = 0.5 * (lo + hi)
+    ref = 2 * math.pi * math.sqrt(3.0) * 1.5
+    return [_row("michell", f"critical total twist (rad), bisection to [{lo * tw_c:.3f}, {hi * tw_c:.3f}]",
+                 est * tw_c, ref, est * tw_c / ref - 1.0, 0.02, time.perf_counter() - t0)]
