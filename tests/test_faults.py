@@ -3,6 +3,7 @@ errors are one-line errors."""
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import signal
@@ -104,3 +105,34 @@ def test_every_protocol_default_is_in_range():
 
     for proto in protocols().values():
         check_param_ranges(protocol_defaults(proto))
+
+
+# ------------------------------------------------------------------------------------------ OS probes
+def test_malformed_scheduler_address_is_one_line(tmp_path):
+    from click.testing import CliRunner
+
+    from knotsim.cli import main
+
+    study = Path(__file__).resolve().parents[1] / "examples" / "studies" / "bends.toml"
+    res = CliRunner().invoke(main, ["study", str(study), "-o", str(tmp_path / "s"), "--scheduler", "tcp://::bad::"])
+    assert res.exit_code == 2, res.output
+    assert "scheduler" in res.output and "Traceback" not in res.output
+
+
+@pytest.mark.parametrize("err, words", [(errno.ENOSPC, "the disk is full"), (errno.EROFS, "read-only")])
+def test_full_or_read_only_disk_during_a_run_is_one_line(tmp_path, monkeypatch, err, words):
+    """The trajectory cannot be written (disk full, or the file system read-only): one line, exit 2."""
+    from click.testing import CliRunner
+
+    from knotsim.cli import main
+    from knotsim.io import trajectory
+
+    def broken(self, *a, **k):
+        raise OSError(err, os.strerror(err), str(tmp_path / "out" / "trajectory.h5"))
+
+    monkeypatch.setattr(trajectory.TrajectoryWriter, "append", broken)
+    cfg = Path(__file__).resolve().parents[1] / "examples" / "hanging_rod.toml"
+    res = CliRunner().invoke(main, ["run", str(cfg), "-o", str(tmp_path / "out"), "--duration", "0.01", "-q"])
+    assert res.exit_code == 2, res.output
+    assert words in res.output and "Traceback" not in res.output
+    assert len([line for line in res.output.splitlines() if line.startswith("error:")]) == 1

@@ -271,8 +271,9 @@ def _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0,
         address = getattr(scheduler, "scheduler_address", scheduler)
         try:
             client = Client(address, timeout="20s")
-        except OSError as exc:
-            raise ConfigError("scheduler", f"cannot connect to the Dask scheduler at {address!r}: {exc}") from None
+        except (OSError, ValueError, TypeError) as exc:  # unreachable, or a malformed address
+            raise ConfigError("scheduler", f"cannot connect to the Dask scheduler at {address!r}: {exc}; give "
+                                           "tcp://HOST:PORT") from None
         own = True
     cache = {"t": 0.0, "n": 1}
 
