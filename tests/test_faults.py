@@ -27,13 +27,17 @@ RUN = {
 }
 
 
-def _start(tmp_path: Path) -> tuple[subprocess.Popen, Path]:
+def _start(tmp_path: Path, checkpoint_seconds: float | None = None) -> tuple[subprocess.Popen, Path]:
     cfg = tmp_path / "run.toml"
     cfg.write_text(dumps_toml(RUN))
     out = tmp_path / "out"
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
-    proc = subprocess.Popen([sys.executable, "-m", "knotsim.cli", "run", str(cfg), "-o", str(out)], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    cmd = [sys.executable, "-m", "knotsim.cli", "run", str(cfg), "-o", str(out)]
+    if checkpoint_seconds is not None:  # the same command with a shorter checkpoint interval
+        cmd = [sys.executable, "-c", "import sys, knotsim.io.run_output as r, knotsim.cli as c; "
+               f"r.CHECKPOINT_SECONDS = {checkpoint_seconds}; sys.argv = ['knotsim'] + sys.argv[1:]; c.main()",
+               "run", str(cfg), "-o", str(out)]
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     t0 = time.monotonic()
     side = out / "log.jsonl"
     while time.monotonic() - t0 < 120:  # until a few flushes went out
@@ -71,6 +75,21 @@ def test_kill9_keeps_the_rows_up_to_the_last_flush_and_run_json(tmp_path):
     assert not (out / "log.parquet").exists()
     assert len(log) >= info["steps"] and log["time"].is_monotonic_increasing
     assert {"time", "dt", "iterations", "left_fx"} <= set(log.columns)
+
+
+def test_kill9_then_run_from_continues_from_the_last_periodic_checkpoint(tmp_path):
+    from knotsim.io.checkpoint import read_checkpoint
+    from knotsim.runspec import run
+
+    proc, out = _start(tmp_path, checkpoint_seconds=0.5)
+    time.sleep(1.5)
+    proc.send_signal(signal.SIGKILL)
+    proc.communicate(timeout=60)
+    assert (out / "run.toml").is_file() and (out / "checkpoint.npz").is_file()  # written while it ran
+    t_ckpt = read_checkpoint(out / "checkpoint.npz").time
+    assert t_ckpt > 0.0
+    res = run(out / "run.toml", tmp_path / "more", duration=0.05, continue_from=out)
+    assert res.state.time == pytest.approx(t_ckpt + 0.05)
 
 
 def test_output_under_a_regular_file_is_a_one_line_error(tmp_path):

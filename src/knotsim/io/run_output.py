@@ -12,9 +12,11 @@
 - ``run.json``: configuration (when known), knotsim version, git commit of the knotsim source
   (when it is a git checkout), wall time, outcome: written at the start with outcome
   ``"running"``, updated at every log flush (steps, simulated time) and at the end;
-- ``run.toml``: the complete run description (when known), which ``knotsim run`` replays;
-- ``checkpoint.npz``: everything that decides the next step, at the end of the run (or at the
-  last accepted step of a failed one): ``knotsim run --from DIR`` continues from it.
+- ``run.toml``: the complete run description (when known), which ``knotsim run`` replays; written
+  at the start;
+- ``checkpoint.npz``: everything that decides the next step, every ``CHECKPOINT_SECONDS`` s of wall
+  time while the run goes and at its end (or at the last accepted step of a failed or interrupted
+  one): ``knotsim run --from DIR`` continues from it, also after ``kill -9``.
 """
 
 from __future__ import annotations
@@ -36,6 +38,9 @@ LOG_FLUSH_STEPS = 16
 #: ... or after this much wall time (s) since the last flush, whichever comes first.
 LOG_FLUSH_SECONDS = 2.0
 LOG_SIDE_FILE = "log.jsonl"
+#: A checkpoint is also written while the run goes, every this many s of wall time, so that a run
+#: killed with ``kill -9`` can be continued (``knotsim run --from DIR``) from at most that long ago.
+CHECKPOINT_SECONDS = 30.0
 
 
 def git_commit() -> str | None:
@@ -93,6 +98,9 @@ class RunOutput:
         self._wall0 = _time.perf_counter()
         self._flushed = len(sim.rows)
         self._last_flush = _time.perf_counter()
+        self._last_checkpoint = self._last_flush
+        if self.config is not None:
+            self._write_run_file()
         self._log_fh = open(self.dir / LOG_SIDE_FILE, "w", encoding="utf-8")
         write_json(self.dir / "run.json", self._info("running"))
 
@@ -145,6 +153,10 @@ class RunOutput:
         if self.interval is None or sim.state.time >= self._next - 1e-9 * self.interval:
             self.frame(sim)
         self.flush_log()
+        now = _time.perf_counter()
+        if now - self._last_checkpoint >= CHECKPOINT_SECONDS:
+            self.sim.save_checkpoint(self.dir / "checkpoint.npz")
+            self._last_checkpoint = now
 
     def close(self, outcome: str, wall_time: float, t_start: float) -> None:
         # the final state is always a frame, whatever the output interval
@@ -162,6 +174,9 @@ class RunOutput:
         info["newton_iterations"] = int(log["iterations"].sum()) if len(log) else 0
         self.sim.save_checkpoint(self.dir / "checkpoint.npz")
         if self.config is not None:
-            write_toml(self.dir / "run.toml", self.config,
-                       header=f"knotsim {knotsim.__version__} run file, replayed by: knotsim run run.toml -o OUT")
+            self._write_run_file()
         write_json(self.dir / "run.json", info)
+
+    def _write_run_file(self) -> None:
+        write_toml(self.dir / "run.toml", self.config,
+                   header=f"knotsim {knotsim.__version__} run file, replayed by: knotsim run run.toml -o OUT")
