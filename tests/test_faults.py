@@ -155,3 +155,45 @@ def test_full_or_read_only_disk_during_a_run_is_one_line(tmp_path, monkeypatch, 
     assert res.exit_code == 2, res.output
     assert words in res.output and "Traceback" not in res.output
     assert len([line for line in res.output.splitlines() if line.startswith("error:")]) == 1
+
+
+def test_nan_positions_are_refused_at_export(tmp_path):
+    import numpy as np
+
+    from knotsim.errors import ConfigError
+    from knotsim.io.trajectory import TrajectoryWriter
+    from knotsim.io.vtk import export_vtk
+
+    with TrajectoryWriter(tmp_path / "trajectory.h5", [0, 3], [0, 2], [False], [1e-3]) as w:
+        w.append(0.0, np.zeros((3, 3)), np.zeros(2))
+        x = np.zeros((3, 3))
+        x[1, 0] = np.nan
+        w.append(0.1, x, np.zeros(2))
+    with pytest.raises(ConfigError, match=r"frame 1 \(t = 0.1 s\) has non-finite positions \(first at node 1\)"):
+        export_vtk(tmp_path / "trajectory.h5", tmp_path / "vtk")
+
+
+def test_animate_case_accepts_only_case_ids(tmp_path):
+    from click.testing import CliRunner
+
+    from knotsim.cli import main
+
+    (tmp_path / "cases").mkdir()
+    for bad in ("../../*", "/etc"):
+        res = CliRunner().invoke(main, ["animate", str(tmp_path), "--case", bad, "-o", str(tmp_path / "a.gif")])
+        assert res.exit_code == 2 and "expected a case id" in res.output and "Traceback" not in res.output
+
+
+def test_trajectory_chunks_are_sized_by_bytes(tmp_path):
+    import h5py
+    import numpy as np
+
+    from knotsim.io.trajectory import TrajectoryWriter
+
+    n = 200_000
+    with TrajectoryWriter(tmp_path / "t.h5", [0, n], [0, n - 1], [False], [1e-3]) as w:
+        w.append(0.0, np.zeros((n, 3)), np.zeros(n - 1))
+    with h5py.File(tmp_path / "t.h5") as f:
+        chunk = f["positions"].chunks
+    assert chunk[0] == 1  # one 4.8 MB frame per chunk, not 64 (307 MB allocated for one frame)
+    assert (tmp_path / "t.h5").stat().st_size < 50 << 20

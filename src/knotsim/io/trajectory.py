@@ -169,7 +169,9 @@ class TrajectoryWriter:
 
         from knotsim import __version__
 
-        cf = int(chunk_frames)
+        # chunks of at most about 1 MiB (so a few frames of a huge rod do not allocate 64 frames each)
+        per_frame = 8 * 3 * max(self.n_nodes, 1)
+        cf = max(1, min(int(chunk_frames), (1 << 20) // per_frame))
         f = h5py.File(self.path, "w")
         try:
             f.attrs["format"] = FORMAT_NAME

@@ -307,6 +307,12 @@ def export_vtk(
     entries: list[tuple[float, str]] = []
     try:
         for i in frames:
+            x = np.asarray(traj.positions[i])
+            if not np.all(np.isfinite(x)):
+                bad = int(np.argmax(~np.all(np.isfinite(x.reshape(-1, 3)), axis=1)))
+                raise ConfigError("trajectory", f"frame {int(traj.frame_indices[i])} (t = {float(traj.time[i]):.6g} s) "
+                                                f"has non-finite positions (first at node {bad}); export the frames "
+                                                "before it with a frame selection, or rerun the simulation")
             fname = f"{name}_{int(traj.frame_indices[i]):06d}.vtp"
             (out / fname).write_text(_frame_vtp(traj, i, encoding), encoding="ascii")
             paths.append(out / fname)

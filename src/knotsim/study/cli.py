@@ -157,7 +157,9 @@ def animate(run_dir: Path, case_id: str | None, out: Path, fps: float, every: in
 
     if case_id is not None:
         cases = run_dir / "cases"
-        found = sorted(d for d in cases.glob(f"{case_id}*") if d.is_dir()) if cases.is_dir() else []
+        if not case_id or not all(c in "0123456789abcdef" for c in case_id.lower()):
+            raise ConfigError("case", f"expected a case id (hexadecimal digits, e.g. 3f2a), got {case_id!r}")
+        found = sorted(d for d in cases.glob(f"{case_id.lower()}*") if d.is_dir()) if cases.is_dir() else []
         if not found:
             raise ConfigError("case", f"no case {case_id!r} in {run_dir}/cases")
         if len(found) > 1:
