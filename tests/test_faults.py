@@ -197,3 +197,17 @@ def test_trajectory_chunks_are_sized_by_bytes(tmp_path):
         chunk = f["positions"].chunks
     assert chunk[0] == 1  # one 4.8 MB frame per chunk, not 64 (307 MB allocated for one frame)
     assert (tmp_path / "t.h5").stat().st_size < 50 << 20
+
+
+def test_study_base_must_lie_in_the_study_folder(tmp_path):
+    from knotsim.errors import ConfigError
+    from knotsim.study.spec import load_study_spec
+
+    (tmp_path / "outside.toml").write_text(dumps_toml(RUN))
+    (tmp_path / "s").mkdir()
+    (tmp_path / "s" / "study.toml").write_text('base = "../outside.toml"\n')
+    with pytest.raises(ConfigError, match="outside the study's folder"):
+        load_study_spec(tmp_path / "s" / "study.toml")
+    (tmp_path / "s" / "inside.toml").write_text(dumps_toml(RUN))
+    (tmp_path / "s" / "study.toml").write_text('base = "inside.toml"\n[grid]\n"solver.dt" = [1e-3, 2e-3]\n')
+    assert len(load_study_spec(tmp_path / "s" / "study.toml").expand()) == 2

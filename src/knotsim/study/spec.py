@@ -314,6 +314,10 @@ def load_study_spec(source: str | os.PathLike | dict, *, base_dir: str | os.Path
                           "or base = \"run.toml\"")
     if isinstance(base, str):
         bpath = (bdir / base) if not Path(base).is_absolute() else Path(base)
+        root = bdir.resolve()
+        if not bpath.resolve().is_relative_to(root):
+            raise ConfigError("base", f"{base!r} lies outside the study's folder {str(root)!r}; keep the base run "
+                                      "file beside the study file or in a folder below it")
         base = load_toml(bpath, "base")
         bdir = bpath.resolve().parent
     if not isinstance(base, dict):
