@@ -232,3 +232,13 @@ def test_halves_that_end_on_a_step_boundary_also_continue_bit_for_bit(tmp_path):
     cont = run(RunSpec.load(tmp_path / "half" / "run.toml"), tmp_path / "cont", duration=0.2,
                continue_from=tmp_path / "half")
     np.testing.assert_array_equal(cont.state.q, full.state.q)
+
+
+def test_saved_run_files_put_each_node_on_one_line_and_round_trip_exactly():
+    from knotsim._util.toml import dumps_toml, loads_toml
+
+    rng = np.random.default_rng(3)
+    data = {"rods": [{"name": "r", "shape": "points", "positions": rng.normal(size=(50, 3)).tolist()}]}
+    text = dumps_toml(data)
+    assert loads_toml(text) == data
+    assert len(text.splitlines()) < 60  # one line per node (tomli-w alone writes four)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -71,10 +72,25 @@ def dumps_toml(data: dict, header: str = "") -> str:
     written as ``inf``; ``None`` values are left out."""
     clean = to_toml_value(data)
     _check_finite(clean, "")
-    text = tomli_w.dumps(clean, multiline_strings=False)
+    text = _compact_arrays(tomli_w.dumps(clean, multiline_strings=False))
     if header:
         text = "".join(f"# {line}".rstrip() + "\n" for line in header.splitlines()) + "\n" + text
     return text
+
+
+_INNER_ARRAY = re.compile(r"\[\n((?:[ ]+[^\[\]\n]+,\n)+)[ ]*\]")
+
+
+def _compact_arrays(text: str) -> str:
+    """Innermost arrays written one element per line by tomli-w, put on one line when that line
+    stays short (a node's ``[x, y, z]`` is one line; values are untouched)."""
+
+    def join(m: re.Match) -> str:
+        items = [line.strip().rstrip(",") for line in m.group(1).splitlines()]
+        one = "[" + ", ".join(items) + "]"
+        return one if len(one) <= 100 else m.group(0)
+
+    return _INNER_ARRAY.sub(join, text)
 
 
 def write_toml(path: str | os.PathLike, data: dict, header: str = "") -> Path:
