@@ -61,10 +61,10 @@ def run_executor(config: dict, out_dir: Path, base_dir: Path) -> dict:
     """
     import time
 
-    from knotsim.io.config import build_simulation, load_config
+    from knotsim.runspec import RunSpec, build_run
 
-    cfg = load_config(config, base_dir=base_dir)
-    sim = build_simulation(cfg)
+    sim, cfg = build_run(RunSpec.from_dict(config, base_dir=base_dir) if isinstance(config, dict)
+                         else RunSpec.coerce(config))
     wall0 = time.perf_counter()
     log = sim.run(cfg.duration, output_dir=out_dir, output_interval=cfg.output_interval, progress=False)
     wall = time.perf_counter() - wall0
