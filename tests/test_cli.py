@@ -215,7 +215,7 @@ def fake_cases(monkeypatch):
 
 
 def test_validate_selected_pass(runner, fake_cases):
-    res = runner.invoke(main, ["validate", "beam", "helix", "--quick"])
+    res = runner.invoke(main, ["validate", "beam", "helix", "--quick", "--json"])
     assert res.exit_code == 0, res.output
     assert fake_cases.calls == [(["beam", "helix"], True)]
     lines = res.stdout.strip().splitlines()
@@ -228,12 +228,20 @@ def test_validate_selected_pass(runner, fake_cases):
 
 
 def test_validate_all_with_failure_exit_1(runner, fake_cases):
-    res = runner.invoke(main, ["validate"])
+    res = runner.invoke(main, ["validate", "--json"])
     assert res.exit_code == 1
     assert fake_cases.calls == [(["beam", "helix", "broken"], False)]
     assert "FAIL" in res.stdout
     final = json.loads(res.stdout.strip().splitlines()[-1])
     assert final["passed"] is False and len(final["cases"]) == 4
+
+
+def test_validate_table_is_narrow_and_json_is_opt_in(runner, fake_cases):
+    res = runner.invoke(main, ["validate", "beam", "helix"])
+    assert res.exit_code == 0
+    lines = res.stdout.strip().splitlines()
+    assert lines[-1].endswith("checks passed") and not any(line.startswith("{") for line in lines)
+    assert max(len(line) for line in lines) <= 130
 
 
 def test_validate_json_only(runner, fake_cases):

@@ -157,29 +157,42 @@ def _fmt(v) -> str:
 _TABLE_COLUMNS = ("case", "quantity", "value", "reference", "error", "tolerance", "passed", "wall_time")
 
 
+#: Widest ``quantity`` cell of the table; longer texts wrap onto continuation lines.
+_QUANTITY_WIDTH = 48
+
+
 def _results_table(results: list[dict]) -> str:
+    import textwrap
+
     rows = [[_fmt(r.get(c)) for c in _TABLE_COLUMNS] for r in results]
+    wrapped = [textwrap.wrap(row[1], _QUANTITY_WIDTH) or [""] for row in rows]
+    for row, parts in zip(rows, wrapped, strict=True):
+        row[1] = parts[0]
     head = list(_TABLE_COLUMNS[:-1]) + ["wall_time (s)"]
     widths = [max(len(h), *(len(row[i]) for row in rows)) if rows else len(h) for i, h in enumerate(head)]
     lines = ["  ".join(h.ljust(w) for h, w in zip(head, widths, strict=True)),
              "  ".join("-" * w for w in widths)]
-    for r, row in zip(results, rows, strict=True):
+    for r, row, parts in zip(results, rows, wrapped, strict=True):
         cells = [c.ljust(w) for c, w in zip(row, widths, strict=True)]
         ok = bool(r.get("passed"))
         cells[6] = click.style(("PASS" if ok else "FAIL").ljust(widths[6]), fg="green" if ok else "red", bold=not ok)
         lines.append("  ".join(cells).rstrip())
+        for more in parts[1:]:  # the rest of a long quantity, under its column
+            lines.append((" " * (widths[0] + 2) + "  " + more).rstrip())
     return "\n".join(lines)
 
 
 @main.command()
 @click.argument("cases", nargs=-1)
 @click.option("--quick", is_flag=True, help="Coarser discretisations, for a fast check.")
-@click.option("--json-only", is_flag=True, help="Print only the final JSON line.")
+@click.option("--json", "as_json", is_flag=True, help="After the table, print one JSON line with every result.")
+@click.option("--json-only", is_flag=True, help="Print only the JSON line.")
 @_exit_codes
-def validate(cases: tuple[str, ...], quick: bool, json_only: bool):
+def validate(cases: tuple[str, ...], quick: bool, as_json: bool, json_only: bool):
     """Run validation CASES against analytical or published results (default: all).
 
-    Prints a table, then one JSON line {"cases": [...], "passed": bool}; exit code 1 if a case fails.
+    Prints a table (long quantities wrapped) and how many checks passed; with --json also one JSON
+    line {"cases": [...], "passed": bool}. Exit code 1 if a check fails.
     """
     mod = _validation_module()
     known = list(mod.CASES)
@@ -197,7 +210,8 @@ def validate(cases: tuple[str, ...], quick: bool, json_only: bool):
         click.echo(_results_table(results))
         n_fail = sum(not r.get("passed") for r in results)
         click.echo(f"{len(results) - n_fail}/{len(results)} checks passed")
-    click.echo(json.dumps({"cases": _json_value(results), "passed": passed}))
+    if as_json or json_only:
+        click.echo(json.dumps({"cases": _json_value(results), "passed": passed}))
     if not passed:
         raise click.exceptions.Exit(EXIT_FAILED_CHECKS)
 
