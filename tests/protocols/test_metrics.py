@@ -182,3 +182,28 @@ def test_contact_and_solver_overrides_may_be_nested_tables():
                                                           "solver": {"max_iterations": 30}})
     assert p.contact == {"delta": 5e-4, "stiffness_scaler": 250.0}
     assert p.solver == {"max_iterations": 30}
+
+
+def test_ramped_pull_starts_smoothly_and_reaches_the_speed():
+    import numpy as np
+
+    from knotsim.bc.paths import RampedVelocity
+
+    p = RampedVelocity([0.01, 0.0, 0.0], 0.5)
+    e = np.linspace(0.0, 1.0, 2001)
+    x = np.array([p(t)[0] for t in e])
+    v = np.gradient(x, e)
+    assert x[0] == 0.0 and abs(v[0]) < 1e-4 and v[-1] == pytest.approx(0.01, rel=1e-6)
+    assert np.max(np.abs(np.diff(v))) < 1e-4  # no jump of speed anywhere
+    assert p(1.0)[0] == pytest.approx(0.01 * 0.75)
+
+
+def test_protocol_ramp_time_reaches_the_run_file(tmp_path):
+    from knotsim.protocols import build_protocol_run
+
+    _, _, spec, _ = build_protocol_run("single-rod-bend", "single_rod_reef", quick=True,
+                                       overrides={"ramp_time": 0.5})
+    pulls = [b for b in spec.data["bc"] if b["name"].startswith("pull")]
+    assert pulls and all(b["ramp_time"] == 0.5 for b in pulls)
+    _, _, spec0, _ = build_protocol_run("single-rod-bend", "single_rod_reef", quick=True)
+    assert all("ramp_time" not in b for b in spec0.data["bc"])  # the published abrupt start by default

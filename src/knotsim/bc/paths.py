@@ -48,6 +48,31 @@ class ConstantVelocity(Path):
         return f"ConstantVelocity({self.velocity.tolist()})"
 
 
+class RampedVelocity(Path):
+    """A smooth start: the velocity grows linearly from 0 to ``velocity (3,)`` m/s over
+    ``ramp_time`` s, then stays (displacement ``v e^2 / (2 T)`` for ``e < T``, ``v (e - T/2)``
+    after; continuous in position and velocity)."""
+
+    def __init__(self, velocity: Sequence[float], ramp_time: float):
+        v = np.asarray(velocity, dtype=float)
+        if v.shape != (3,) or not np.all(np.isfinite(v)):
+            raise ConfigError("velocity", f"expected 3 finite components in m/s, got {velocity!r}")
+        t = float(ramp_time)
+        if not (t > 0 and np.isfinite(t)):
+            raise ConfigError("ramp_time", f"must be a positive time in s, got {ramp_time!r}")
+        self.velocity = v
+        self.ramp_time = t
+
+    def displacement(self, elapsed: float) -> np.ndarray:
+        e = max(float(elapsed), 0.0)
+        if e < self.ramp_time:
+            return self.velocity * (e * e / (2.0 * self.ramp_time))
+        return self.velocity * (e - 0.5 * self.ramp_time)
+
+    def __repr__(self) -> str:
+        return f"RampedVelocity({self.velocity.tolist()}, ramp_time={self.ramp_time})"
+
+
 class Waypoints(Path):
     """Piecewise-linear motion through waypoints.
 

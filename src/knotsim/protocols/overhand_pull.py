@@ -67,8 +67,9 @@ class OverhandPull(LoadingProtocol):
         v = float(ctx.params["pull_speed"])
         ctx.data["axis"] = axis
         ctx.data["e0"] = ctx.length - float(np.linalg.norm(x[-1] - x[0]))
-        ctx.add_bc("move", "pull_start", rod=0, nodes=[0, 1], velocity=list(-v * axis))
-        ctx.add_bc("move", "pull_end", rod=0, nodes=[-2, -1], velocity=list(v * axis))
+        ramp = float(ctx.params["ramp_time"]) or None
+        ctx.add_bc("move", "pull_start", rod=0, nodes=[0, 1], velocity=list(-v * axis), ramp_time=ramp)
+        ctx.add_bc("move", "pull_end", rod=0, nodes=[-2, -1], velocity=list(v * axis), ramp_time=ramp)
 
     def duration(self, ctx: RunContext) -> float:
         e0 = ctx.data["e0"]

@@ -30,6 +30,7 @@ COMMON_DEFAULTS: dict[str, Any] = {
     "duration": None,         # simulated time, s (None: the protocol decides)
     "output_interval": 0.1,   # trajectory frame interval, s
     "geometry_scale": 1.0,    # factor from a node file's units to m (geometry sources only)
+    "ramp_time": 0.0,         # s over which the pull speed grows from 0 (0: abrupt start, as published)
 }
 
 #: Unit and one-line meaning of every protocol parameter (of :data:`COMMON_DEFAULTS` and of each
@@ -50,6 +51,7 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "duration": ("s", "simulated time (none: the protocol computes it)"),
     "output_interval": ("s", "time between trajectory frames"),
     "geometry_scale": ("-", "factor from a --geometry node file's units to m (geometry sources only)"),
+    "ramp_time": ("s", "the pull speed grows linearly from 0 over this time (0: the abrupt start of the published set-ups)"),
     "contact.delta": ("m", "contact distance tolerance of the IMC potential"),
     "contact.nu": ("m/s", "slip speed below which friction is smoothed (sticking)"),
     # pulling
@@ -82,7 +84,7 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
 PARAM_RANGES: dict[str, str] = {
     "n_nodes": "int>=3", "radius": ">0", "length": ">0", "youngs_modulus": ">0", "density": ">0",
     "poisson_ratio": "poisson", "damping": ">=0", "mu": ">=0", "dt": ">0", "duration": ">0",
-    "output_interval": ">0", "geometry_scale": ">0", "pull_speed": ">0", "e_final": ">0",
+    "output_interval": ">0", "geometry_scale": ">0", "ramp_time": ">=0", "pull_speed": ">0", "e_final": ">0",
     "mean_window": ">0", "hold_time": ">=0", "hold_nodes": "int>=1", "pre_pull": ">=0",
     "pre_pull_speed": ">0", "transient": ">=0", "loose_factor": ">0", "pull_length": ">0",
     "pre_tighten": ">=0", "pre_tighten_speed": ">0", "force_rate": ">0", "runaway_speed": ">0",

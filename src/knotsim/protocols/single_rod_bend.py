@@ -94,6 +94,9 @@ class SingleRodBend(LoadingProtocol):
         t_pre = pre_pull_time(ctx.params)
         ctx.data["t_pre"] = t_pre
         if t_pre > 0:
+            if float(ctx.params["ramp_time"]) > 0:
+                raise ConfigError("ramp_time", "a smooth start goes with the plain pull; with pre_pull the ends "
+                                               "already move when the measured pull starts")
             v_pre = float(ctx.params["pre_pull_speed"] or v)
             # each end: pre-tightening at v_pre for t_pre, then the measured pull at v
             for gname, nodes, sign in (("pull_start", [0, 1], -1.0), ("pull_end", [-2, -1], 1.0)):
@@ -101,8 +104,11 @@ class SingleRodBend(LoadingProtocol):
                     "times": [0.0, t_pre], "points": [[0.0, 0.0, 0.0], list(sign * v_pre * t_pre * axis)],
                     "then_velocity": list(sign * v * axis)})
         else:
-            ctx.add_bc("move", "pull_start", rod=0, nodes=[0, 1], velocity=list(-v * axis), twist=twist)
-            ctx.add_bc("move", "pull_end", rod=0, nodes=[-2, -1], velocity=list(v * axis), twist=twist)
+            ramp = float(ctx.params["ramp_time"]) or None
+            ctx.add_bc("move", "pull_start", rod=0, nodes=[0, 1], velocity=list(-v * axis), twist=twist,
+                       ramp_time=ramp)
+            ctx.add_bc("move", "pull_end", rod=0, nodes=[-2, -1], velocity=list(v * axis), twist=twist,
+                       ramp_time=ramp)
         width = ctx.params["hold_nodes"]
         if not (isinstance(width, int) and width >= 1 and width % 2 == 1):
             raise ConfigError("hold_nodes", f"must be an odd number of nodes >= 1, got {width!r}")

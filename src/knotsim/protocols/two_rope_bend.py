@@ -302,7 +302,8 @@ class TwoRopeBend(LoadingProtocol):
             if t_pre > 0:
                 ctx.add_bc("move", "pull", rod=pulled.rope, nodes=pull_nodes, waypoints=pre(d_pull, v * axis))
             else:
-                ctx.add_bc("move", "pull", rod=pulled.rope, nodes=pull_nodes, velocity=list(v * axis))
+                ctx.add_bc("move", "pull", rod=pulled.rope, nodes=pull_nodes, velocity=list(v * axis),
+                           ramp_time=float(ctx.params["ramp_time"]) or None)
         else:
             rate = float(ctx.params["force_rate"])
             if t_pre > 0:

@@ -27,7 +27,7 @@ _BC_COMMON = ("type", "name", "rod", "nodes", "start", "stop")
 _BC_TYPES = {
     "clamp": _BC_COMMON + ("twist",),
     "hold": _BC_COMMON,
-    "move": _BC_COMMON + ("twist", "velocity", "waypoints", "rotate_about"),
+    "move": _BC_COMMON + ("twist", "velocity", "ramp_time", "waypoints", "rotate_about"),
     "rotate": _BC_COMMON + ("rate",),
     "pin": _BC_COMMON + ("axes", "twist"),
     "slide": _BC_COMMON + ("along", "twist"),
@@ -211,7 +211,13 @@ def parse_bc(t, i: int) -> BCSpec:
         if has_v:
             kw["path"] = as_vec3(t["velocity"], f"{path}.velocity")
             key_map["path"] = "velocity"
-        elif has_w:
+            if "ramp_time" in t:
+                from knotsim.bc.paths import RampedVelocity
+
+                kw["path"] = RampedVelocity(kw["path"], get_field(t, "ramp_time", path, as_number, positive=True))
+        elif "ramp_time" in t:
+            raise ConfigError(f"{path}.ramp_time", "ramp_time goes with velocity (a smooth start of a constant speed)")
+        if has_w:
             kw["path"] = parse_waypoints(t["waypoints"], f"{path}.waypoints")
             key_map["path"] = "waypoints"
     elif kind == "rotate":
