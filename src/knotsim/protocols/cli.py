@@ -218,7 +218,8 @@ def tie(sequence: str | None, outdir: Path | None, overwrite: bool, list_: bool,
     click.echo(f"{sequence}: tied a {res.knot_type} ({verdict})")
     click.echo(f"  {res.steps} steps over {res.sim_time:.4g} s in {res.wall_time:.1f} s wall; worst penetration "
                f"{res.max_penetration_ratio:.3g} h")
-    click.echo(f"  output: {outdir}; pull it next with: knotsim pull --geometry {outdir} --protocol overhand-pull "
+    follow = "overhand-pull" if sequence == "overhand" else "single-rod-bend"
+    click.echo(f"  output: {outdir}; pull it next with: knotsim pull --geometry {outdir} --protocol {follow} "
                f"-o OUT")
     if not res.ok:
         raise click.exceptions.Exit(EXIT_SIMULATION)
