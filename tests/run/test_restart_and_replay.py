@@ -242,3 +242,16 @@ def test_saved_run_files_put_each_node_on_one_line_and_round_trip_exactly():
     text = dumps_toml(data)
     assert loads_toml(text) == data
     assert len(text.splitlines()) < 60  # one line per node (tomli-w alone writes four)
+
+
+def test_a_protocol_continuing_a_run_keeps_its_rope_material(tmp_path):
+    from knotsim.protocols import build_protocol_run
+
+    run(RunSpec.load(EXAMPLES / "hanging_rod.toml"), tmp_path / "a", duration=0.01)
+    _, ctx, spec, notes = build_protocol_run("overhand-pull", geometry=str(tmp_path / "a"), quick=True)
+    assert ctx.params["youngs_modulus"] == 1e6 and ctx.params["density"] == 1000.0
+    assert spec.data["rods"][0]["youngs_modulus"] == 1e6
+    assert any("youngs_modulus = 1000000.0 from the run" in n for n in notes)
+    _, ctx2, _, _ = build_protocol_run("overhand-pull", geometry=str(tmp_path / "a"), quick=True,
+                                       overrides={"youngs_modulus": 2e6})
+    assert ctx2.params["youngs_modulus"] == 2e6

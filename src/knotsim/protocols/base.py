@@ -255,7 +255,15 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
                 notes.append(f"--quick: {key} = {quick_layer.pop(key)} not applied (the geometry fixes {key})")
             if overrides and key in overrides:
                 raise ConfigError(key, f"the geometry {geometry!r} fixes {key}; it cannot be set")
-        params = resolve_params(templates, defaults, quick_layer, overrides)
+        from knotsim.io.geometry import is_run_directory
+        from knotsim.protocols.geometry import run_material
+
+        # an earlier run's rope keeps its material unless overridden (it is the same rope)
+        material = run_material(geometry) if is_run_directory(geometry) else {}
+        for key, value in material.items():
+            if not overrides or key not in overrides:
+                notes.append(f"--geometry: {key} = {value} from the run (--set {key}=... to change)")
+        params = resolve_params(templates, defaults, material, quick_layer, overrides)
         scale = float(params["geometry_scale"])
         if not (scale > 0 and math.isfinite(scale)):
             raise ConfigError("geometry_scale", f"must be a positive factor (file units to m), got {scale!r}")

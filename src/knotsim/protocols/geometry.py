@@ -119,16 +119,31 @@ def geometry_from_source(path: str, *, radius: float | None, scale: float = 1.0,
 
 def _provenance(run_dir: Path) -> tuple[str | None, str | None]:
     """Protocol and knot recorded in a run directory's ``run.toml`` (``None`` when absent)."""
+    prov = _run_file(run_dir).get("provenance", {})
+    return prov.get("protocol"), prov.get("knot")
+
+
+def _run_file(run_dir: Path) -> dict:
     f = run_dir / "run.toml"
     if not f.is_file():
-        return None, None
+        return {}
     from knotsim._util.toml import load_toml
 
     try:
-        prov = load_toml(f).get("provenance", {})
+        return load_toml(f)
     except ConfigError:
-        return None, None
-    return prov.get("protocol"), prov.get("knot")
+        return {}
+
+
+#: material keys a run's rope keeps when a protocol continues it
+MATERIAL_KEYS = ("youngs_modulus", "density", "poisson_ratio")
+
+
+def run_material(run_dir: str | Path) -> dict:
+    """The first rod's material (``youngs_modulus`` Pa, ``density`` kg/m^3, ``poisson_ratio``) in
+    a run directory's ``run.toml``, or ``{}``: continuing a run keeps its rope."""
+    rods = _run_file(Path(run_dir)).get("rods") or [{}]
+    return {k: rods[0][k] for k in MATERIAL_KEYS if isinstance(rods[0], dict) and k in rods[0]}
 
 
 def check_edges(geo: ProtocolGeometry) -> None:

@@ -132,8 +132,11 @@ class SingleRodBend(LoadingProtocol):
         f_end = float(np.dot(reactions["pull_end"][:3], axis))
         f_start = -float(np.dot(reactions["pull_start"][:3], axis))
         f = 0.5 * (f_start + f_end)
+        x = m.node_positions(q)
+        contour = float(np.sum(np.linalg.norm(np.diff(x, axis=0), axis=1)))
         return {"F": f, "F_start": f_start, "F_end": f_end, "F_norm": f * ctx.radius**2 / ctx.EI,
-                "end_to_end": float(np.linalg.norm(x1 - x0)), "t_pull": float(t) - ctx.data.get("t_pre", 0.0)}
+                "end_to_end": float(np.linalg.norm(x1 - x0)), "contour_length": contour,
+                "t_pull": float(t) - ctx.data.get("t_pre", 0.0)}
 
     def metrics(self, ctx: RunContext, log) -> dict:
         w = float(ctx.params["mean_window"])
@@ -164,8 +167,9 @@ class SingleRodBend(LoadingProtocol):
         onset = slip_onset(log, "F_norm", mode="drop", drop_fraction=0.3,
                            min_force=0.5 * max(fmax, 1e-12), smooth=0.5, t0=t_skip)
         out["slip_onset"] = onset
-        # tightness: rope still in the knot (L - end-to-end) against the ideal tight knot's ropelength
-        in_knot = float(ctx.length - log["end_to_end"].iloc[-1])
+        # tightness: rope still in the knot (the rope's current length minus the end-to-end distance,
+        # so that stretch does not count) against the ideal tight knot's ropelength
+        in_knot = float(log["contour_length"].iloc[-1] - log["end_to_end"].iloc[-1])
         topo = ctx.data.get("topology_end") or {}
         ideal = ideal_ropelength(topo.get("rolfsen"))
         out["rope_in_knot_final"] = in_knot
