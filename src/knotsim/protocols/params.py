@@ -244,24 +244,20 @@ def resolve_params(defaults: Mapping[str, Any], *layers: Mapping[str, Any] | Non
             solver[k[7:]] = v
         else:
             values[k] = v
+    tables = {"contact": (contact, _contact_keys()), "solver": (solver, _solver_keys())}
     for layer in layers:
         for key, val in _flatten_tables(layer or {}).items():
             if not isinstance(key, str):
                 raise ConfigError(str(key), "override keys must be strings")
             if key in ("contact.mu",):
                 key = "mu"
-            if key.startswith("contact."):
-                sub = key[8:]
-                if sub not in _contact_keys():
-                    raise ConfigError(key, f"unknown contact setting; known: "
-                                           f"{', '.join('contact.' + s for s in sorted(_contact_keys()))}")
-                contact[sub] = val
-            elif key.startswith("solver."):
-                sub = key[7:]
-                if sub not in _solver_keys():
-                    raise ConfigError(key, f"unknown solver setting; known: "
-                                           f"{', '.join('solver.' + s for s in sorted(_solver_keys()))}")
-                solver[sub] = val
+            table, _, sub = key.partition(".")
+            if sub and table in tables:
+                target, known = tables[table]
+                if sub not in known:
+                    raise ConfigError(key, f"unknown {table} setting; known: "
+                                           f"{', '.join(f'{table}.' + s for s in sorted(known))}")
+                target[sub] = val
             elif key in values:
                 values[key] = _coerce(key, defaults.get(key), val)
             else:
