@@ -48,6 +48,7 @@ _LAZY = {
     "read_checkpoint": "knotsim.io.checkpoint", "read_trajectory": "knotsim.io.trajectory",
     # knots
     "get_knot": "knotsim.knots.library", "list_knots": "knotsim.knots.library", "analyze": "knotsim.knots.topology",
+    "counting_rules": "knotsim.knots.topology", "knot_counting_rules": "knotsim.knots.topology",
     "tie_from_straight": "knotsim.knots.tying", "list_tying_sequences": "knotsim.knots.tying",
     # protocols and studies
     "run_protocol": "knotsim.protocols", "build_protocol_run": "knotsim.protocols",

@@ -78,7 +78,8 @@ Modules
 :mod:`~knotsim.knots.topology.linking` (Gauss linking integral, 3D writhe),
 :mod:`~knotsim.knots.topology.table` (knot table, identification),
 :mod:`~knotsim.knots.topology.analyze` (:func:`analyze`, :class:`TopologyResult`),
-:mod:`~knotsim.knots.topology.spherogram_bridge` (optional spherogram identification).
+:mod:`~knotsim.knots.topology.spherogram_bridge` (optional spherogram identification),
+:mod:`~knotsim.knots.topology.counting` (Patil's counting rules N, τ, Γ of a loaded bend).
 Everything public is re-exported here.
 """
 
@@ -91,6 +92,7 @@ from knotsim.knots.topology.alexander import _wirtinger as _wirtinger
 from knotsim.knots.topology.alexander import alexander_polynomial, knot_determinant
 from knotsim.knots.topology.analyze import TopologyResult, analyze
 from knotsim.knots.topology.closure import bend_pairing, close_curves
+from knotsim.knots.topology.counting import CountingRules, counting_rules, knot_counting_rules
 from knotsim.knots.topology.curves import TopologyError
 from knotsim.knots.topology.diagram import Diagram, project
 from knotsim.knots.topology.jones import jones_polynomial, kauffman_bracket
@@ -108,6 +110,7 @@ from knotsim.knots.topology.table import _torus_2q as _torus_2q
 
 __all__ = [
     "KNOT_TABLE",
+    "CountingRules",
     "Diagram",
     "KnotEntry",
     "TopologyError",
@@ -116,12 +119,14 @@ __all__ = [
     "analyze",
     "bend_pairing",
     "close_curves",
+    "counting_rules",
     "gauss_linking_number",
     "identify_knot",
     "identify_with_spherogram",
     "jones_polynomial",
     "kauffman_bracket",
     "knot_determinant",
+    "knot_counting_rules",
     "project",
     "simplify_pd",
     "spherogram_link",
