@@ -26,6 +26,8 @@ EXPECTED = {
     "granny_bend": (6, -6),
     "thief_bend": (6, 0),
     "grief_bend": (6, -6),
+    "carrick_bend": (8, 0),
+    "sheet_bend": (7, -3),
 }
 RESOLUTIONS = (101, 301)
 

@@ -90,7 +90,7 @@ from knotsim.knots.topology.alexander import _fox_matrices as _fox_matrices
 from knotsim.knots.topology.alexander import _minor_poly as _minor_poly
 from knotsim.knots.topology.alexander import _wirtinger as _wirtinger
 from knotsim.knots.topology.alexander import alexander_polynomial, knot_determinant
-from knotsim.knots.topology.analyze import TopologyResult, analyze
+from knotsim.knots.topology.analyze import TopologyResult, analyze, analyze_bend
 from knotsim.knots.topology.closure import bend_pairing, close_curves
 from knotsim.knots.topology.counting import CountingRules, counting_rules, knot_counting_rules
 from knotsim.knots.topology.curves import TopologyError
@@ -105,10 +105,11 @@ from knotsim.knots.topology.simplify import _faces as _faces
 from knotsim.knots.topology.simplify import simplify_pd
 from knotsim.knots.topology.spherogram_bridge import identify_with_spherogram, spherogram_link
 from knotsim.knots.topology.table import _PRIME as _PRIME
-from knotsim.knots.topology.table import KNOT_TABLE, KnotEntry, identify_knot
+from knotsim.knots.topology.table import BEND_TABLE, KNOT_TABLE, KnotEntry, identify_bend, identify_knot
 from knotsim.knots.topology.table import _torus_2q as _torus_2q
 
 __all__ = [
+    "BEND_TABLE",
     "KNOT_TABLE",
     "CountingRules",
     "Diagram",
@@ -117,10 +118,12 @@ __all__ = [
     "TopologyResult",
     "alexander_polynomial",
     "analyze",
+    "analyze_bend",
     "bend_pairing",
     "close_curves",
     "counting_rules",
     "gauss_linking_number",
+    "identify_bend",
     "identify_knot",
     "identify_with_spherogram",
     "jones_polynomial",

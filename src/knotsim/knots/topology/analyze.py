@@ -9,11 +9,12 @@ import numpy as np
 
 from knotsim.knots.topology.alexander import alexander_polynomial, knot_determinant
 from knotsim.knots.topology.closure import _close
+from knotsim.knots.topology.curves import TopologyError
 from knotsim.knots.topology.diagram import Diagram, project
 from knotsim.knots.topology.jones import _jones_from_bracket, kauffman_bracket
 from knotsim.knots.topology.polynomials import _jones_key, _mirror, _pmul_jones
 from knotsim.knots.topology.simplify import simplify_pd
-from knotsim.knots.topology.table import identify_knot
+from knotsim.knots.topology.table import identify_bend, identify_knot
 
 
 @dataclass
@@ -56,6 +57,9 @@ class TopologyResult:
         Simplified PD code, its crossing signs and number of crossing-free circles.
     closed_curves:
         The closed polygons ``(M_k, 3)`` (m) that were analysed.
+    bend:
+        Set by :func:`analyze_bend` only: the bend's name from :data:`~knotsim.knots.topology.table.
+        BEND_TABLE` (``"thief bend"``, ...), ``None`` when not in the table.
     """
 
     n_components: int
@@ -77,6 +81,7 @@ class TopologyResult:
     signs: np.ndarray
     free_loops: int
     closed_curves: list[np.ndarray] = field(repr=False)
+    bend: str | None = None
 
     @property
     def gauss_code(self) -> list[list[int]]:
@@ -190,3 +195,39 @@ def analyze(
         free_loops=free,
         closed_curves=comps,
     )
+
+
+def analyze_bend(ropes, standing, **kwargs) -> TopologyResult:
+    """Topology of a two-rope bend whose standing (loaded) ends are known, with the bend named.
+
+    The two standing ends are joined far away and the two tails far away into one closed curve
+    (:func:`knotsim.protocols.two_rope_bend.close_bend`, standing join above the knot, tails join
+    below it), which is analysed by :func:`analyze`; the two ropes, each closed on itself, give the
+    linking number that, with the closure's Rolfsen name, names the bend (:func:`identify_bend`).
+
+    Parameters
+    ----------
+    ropes:
+        The two ropes' ``(N, 3)`` centrelines (m).
+    standing:
+        ``((rope, end), (rope, end))`` of the two standing ends, one per rope (end 0 = first node,
+        1 = last node); the first is the held one: the closure axis runs from it to the second.
+    kwargs:
+        Passed to :func:`analyze` (projection and Jones options).
+    """
+    from knotsim.protocols.two_rope_bend import close_bend  # the project's one bend closure
+
+    arrs = [np.asarray(r, dtype=float) for r in ropes]
+    (ra, ea), (rb, eb) = ((int(r), int(e)) for r, e in standing)
+    if len(arrs) != 2 or {ra, rb} != {0, 1} or ea not in (0, 1) or eb not in (0, 1):
+        raise TopologyError(f"analyze_bend: need two ropes and one standing end (rope, 0|1) on each, got "
+                            f"{len(arrs)} ropes and standing={standing!r}")
+    pa, pb = arrs[ra][-ea], arrs[rb][-eb]
+    axis = pb - pa
+    if not np.linalg.norm(axis) > 0:
+        raise TopologyError("analyze_bend: the two standing ends coincide, no pull axis")
+    closed = close_bend(arrs, axis / np.linalg.norm(axis), (ra, ea), (rb, eb))
+    res = analyze([closed], [True], **kwargs)
+    link = analyze(arrs, compute_jones=False, **{k: v for k, v in kwargs.items() if k != "compute_jones"})
+    res.bend = identify_bend(res.rolfsen, int(link.linking[0, 1]))
+    return res

@@ -121,3 +121,25 @@ def identify_knot(alexander: Sequence[int] | None, jones: dict | None) -> KnotEn
         return None
     cands = [x for x in KNOT_TABLE if x.alexander == tuple(alexander)]
     return cands[0] if len(cands) == 1 else None
+
+
+#: Bends named from two invariants: the Rolfsen name of the knot made by joining the two standing
+#: (loaded) ends far away and the two tails far away (:func:`knotsim.protocols.two_rope_bend.close_bend`,
+#: handedness ignored: for bends whose standing ends and tails alternate around the knot, thief and
+#: grief, it is a convention of the closure), and the absolute linking number of the two ropes each
+#: closed on itself. Reef and thief (granny and grief) are one drawing loaded at different ends.
+BEND_TABLE: dict[tuple[str, int], str] = {
+    ("3_1#3_1*", 0): "reef bend",
+    ("3_1#3_1", 3): "granny bend",
+    ("6_1", 0): "thief bend",
+    ("3_1", 3): "grief bend",
+    ("6_2", 1): "sheet bend",
+}
+
+
+def identify_bend(rolfsen: str | None, linking: int) -> str | None:
+    """Name of a bend in :data:`BEND_TABLE` from its closure's Rolfsen name and the linking number of
+    its two ropes each closed on itself (sign ignored); ``None`` when nothing matches."""
+    if rolfsen is None:
+        return None
+    return BEND_TABLE.get((rolfsen, abs(int(linking))))
