@@ -218,6 +218,10 @@ def tie(sequence: str | None, outdir: Path | None, overwrite: bool, list_: bool,
     click.echo(f"{sequence}: tied a {res.knot_type} ({verdict})")
     click.echo(f"  {res.steps} steps over {res.sim_time:.4g} s in {res.wall_time:.1f} s wall; worst penetration "
                f"{res.max_penetration_ratio:.3g} h")
+    if res.half_knot is not None:  # reef / granny: the rope between the two half-knots
+        g = res.half_knot
+        click.echo("  half_knot_gap: not measurable (the diagram does not split into two knots)" if g.gap is None
+                   else f"  half_knot_gap: {g.gap:.4g} m = {g.diameters:.3g} rope diameters ({g.form}; limit 10)")
     follow = "overhand-pull" if sequence == "overhand" else "single-rod-bend"
     click.echo(f"  output: {outdir}; pull it next with: knotsim pull --geometry {outdir} --protocol {follow} "
                f"-o OUT")

@@ -99,6 +99,7 @@ What did not work / alternatives:
 
 from __future__ import annotations
 
+from knotsim.knots.tying.gap import HalfKnotGap, half_knot_gap
 from knotsim.knots.tying.hands import (
     Hand,
     hand_stretch,
@@ -123,19 +124,24 @@ from knotsim.knots.tying.sequences import (
     same_end_sequence,
     write_sequence,
 )
+from knotsim.knots.tying.studied import post_header, post_sequence
 
 __all__ = [
     "EXPECTED",
+    "HalfKnotGap",
     "Hand",
     "TyingResult",
     "double_knot_sequence",
     "double_sequence",
     "dumps_toml",
+    "half_knot_gap",
     "hand_stretch",
     "list_tying_sequences",
     "load_tying_config",
     "overhand_hands",
     "overhand_sequence",
+    "post_header",
+    "post_sequence",
     "same_end_header",
     "same_end_sequence",
     "second_half_knot_hands",

@@ -14,10 +14,14 @@ import numpy as np
 from knotsim._util.toml import load_toml
 from knotsim.errors import ConfigError
 
-__all__ = ["EXPECTED", "TyingResult", "list_tying_sequences", "load_tying_config", "tie_from_straight",
+__all__ = ["EXPECTED", "GAP_LIMIT_DIAMETERS", "TyingResult", "list_tying_sequences", "load_tying_config", "tie_from_straight",
            "tying_sequence_path"]
 
 _PKG = "knotsim.data.tying"
+
+#: Largest rope length between the two half-knots of a tied reef or granny, in rope diameters
+#: (issue 12: the second half-knot sits on the first).
+GAP_LIMIT_DIAMETERS = 10.0
 
 #: Expected knot type (``analyze(...).knot_type``) at the end of each shipped sequence.
 EXPECTED = {"overhand": ("trefoil_left", "trefoil_right"), "reef": ("reef",),
@@ -72,6 +76,27 @@ class TyingResult:
     out_dir: Path | None
     topology: object = field(repr=False, default=None)
     positions: np.ndarray | None = field(repr=False, default=None)
+    half_knot: object = field(repr=False, default=None)
+
+    def summary(self) -> dict:
+        """The ``summary.json`` record of the tie: sequence, knot type found and expected, topology
+        (Rolfsen name, chirality, crossings, writhe), for a reef or granny the
+        :func:`~knotsim.knots.tying.gap.half_knot_gap` record (m, and in rope diameters) and its
+        limit (10 diameters), wall and simulated time (s), steps and the worst penetration (1)."""
+        t = self.topology
+        out = {"sequence": self.name, "knot_type": self.knot_type, "expected": list(self.expected), "ok": self.ok,
+               "topology": None if t is None else {
+                   "knot_type": t.knot_type, "rolfsen": t.rolfsen, "chirality": t.chirality,
+                   "n_crossings": int(t.n_crossings), "n_crossings_reduced": int(t.n_crossings_reduced),
+                   "writhe_reduced": int(t.writhe_reduced)},
+               "wall_time": self.wall_time, "sim_time": self.sim_time, "steps": self.steps,
+               "max_penetration_ratio": self.max_penetration_ratio}
+        if self.half_knot is not None:
+            out.update(self.half_knot.as_dict())
+            out["half_knot_gap_limit_diameters"] = GAP_LIMIT_DIAMETERS
+            d = self.half_knot.diameters
+            out["half_knot_gap_ok"] = d is not None and d <= GAP_LIMIT_DIAMETERS
+        return out
 
 
 def tie_from_straight(name: str, out_dir=None, overrides: dict | None = None,
@@ -82,9 +107,14 @@ def tie_from_straight(name: str, out_dir=None, overrides: dict | None = None,
     With ``out_dir`` the run files (trajectory, log, run.json, run.toml, checkpoint.npz) are
     written there, so that ``knotsim pull --geometry OUT_DIR`` loads the tied knot next. The knot
     type is :func:`knotsim.knots.topology.analyze` of the final centreline with its far-away
-    closure. The sequence runs through the one run builder (:func:`knotsim.runspec.run`).
+    closure. The sequence runs through the one run builder (:func:`knotsim.runspec.run`). For a
+    reef or granny the rope length between the two half-knots is measured
+    (:func:`~knotsim.knots.tying.gap.half_knot_gap`, ``res.half_knot``); with ``out_dir``,
+    :meth:`TyingResult.summary` is written there as ``summary.json``.
     """
+    from knotsim._util.jsonio import write_json
     from knotsim.knots.topology import analyze
+    from knotsim.knots.tying.gap import half_knot_gap
     from knotsim.runspec import RunSpec, run
 
     cfg = load_tying_config(name)
@@ -99,6 +129,12 @@ def tie_from_straight(name: str, out_dir=None, overrides: dict | None = None,
     topo = analyze([x])
     exp = EXPECTED.get(name, ())
     pen = float(log["max_penetration_ratio"].max()) if "max_penetration_ratio" in log else 0.0
-    return TyingResult(name, topo.knot_type, exp, topo.knot_type in exp, wall, float(sim.state.time), len(log),
-                       pen, Path(out_dir) if out_dir is not None else None, topo, x)
+    gap = None
+    if name in ("reef", "granny"):
+        gap = half_knot_gap(x, float(cfg["rods"][0]["radius"]))
+    res = TyingResult(name, topo.knot_type, exp, topo.knot_type in exp, wall, float(sim.state.time), len(log),
+                      pen, Path(out_dir) if out_dir is not None else None, topo, x, gap)
+    if out_dir is not None:
+        write_json(Path(out_dir) / "summary.json", res.summary())
+    return res
 
