@@ -36,7 +36,11 @@ reference, the generators document how the waypoints were designed. Modules:
 - :mod:`~knotsim.knots.tying.sequences`: run configurations built from those hands
   (:func:`overhand_sequence`, :func:`same_end_sequence`, ...) and :func:`write_sequence`;
 - :mod:`~knotsim.knots.tying.run`: the shipped sequences (:func:`list_tying_sequences`,
-  :func:`load_tying_config`) and :func:`tie_from_straight`.
+  :func:`load_tying_config`) and :func:`tie_from_straight` (writes ``summary.json``);
+- :mod:`~knotsim.knots.tying.gap`: :func:`half_knot_gap`, the rope between the two half-knots of
+  a reef or granny (the shipped sequences: ``in series``, over 30 rope diameters);
+- :mod:`~knotsim.knots.tying.studied`: :func:`post_sequence`, the studied form tied around a
+  temporary post (work in progress, not shipped: its second stage does not finish yet).
 
 Design of the overhand (rod along +x from the origin, viewer on +z)
 -------------------------------------------------------------------
