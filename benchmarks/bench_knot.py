@@ -44,20 +44,29 @@ def resample(x: np.ndarray, n: int) -> np.ndarray:
 
 
 def start_shape(geometry: str | None, n_nodes: int | None) -> tuple[np.ndarray, str]:
-    from knotsim.io.geometry import read_node_file
-
     if geometry is None and IMC_N1.is_file():
         geometry = str(IMC_N1)
     if geometry is not None:
-        x, name = read_node_file(geometry)[0], Path(geometry).name
+        try:
+            from knotsim.io.geometry import read_node_file
+        except ImportError:  # an older knotsim (see build_old): a text file of x y z [more] per line
+            x = np.loadtxt(geometry, ndmin=2)[:, :3]
+        else:
+            x = read_node_file(geometry)[0]
+        name = Path(geometry).name
     else:
-        x, name = np.array(ks.get_knot("overhand_n1").ropes[0], float), "overhand_n1"
+        from knotsim.knots.library import get_knot
+
+        x, name = np.array(get_knot("overhand_n1").ropes[0], float), "overhand_n1"
     if n_nodes is not None and n_nodes != len(x):
         x = resample(x, n_nodes)
     return x, name
 
 
-def build(x: np.ndarray, args) -> ks.Simulation:
+def build(x: np.ndarray, args):
+    """The job as a :class:`knotsim.Simulation` (public API; :func:`build_old` for older versions)."""
+    if not hasattr(ks, "RodSpec"):
+        return build_old(x, args)
     rope = ks.RodSpec(x, radius=1.6e-3, youngs_modulus=0.18e6, density=1180.0)
     model = ks.Model([rope], damping=0.01)
     axis = (x[-1] - x[0]) / np.linalg.norm(x[-1] - x[0])
@@ -70,6 +79,26 @@ def build(x: np.ndarray, args) -> ks.Simulation:
     return ks.Simulation(model, bcs, ks.SolverOptions(dt=args.dt), interactions=[contact])
 
 
+def build_old(x: np.ndarray, args):
+    """The same job through the module layout of older versions (e.g. b9cf36f, before the public
+    API), so that an older checkout can be timed with this script (``PYTHONPATH=CHECKOUT/src``):
+    the ends are clamped until ``wait`` and then move at 6 mm/s (a displacement function)."""
+    from knotsim.bc import BoundaryConditions
+    from knotsim.contact.model import ContactInteraction, ContactSettings
+    from knotsim.rods import Model, RodSpec
+    from knotsim.simulation import Simulation
+    from knotsim.solver.stepper import SolverSettings
+
+    model = Model([RodSpec(x, radius=1.6e-3, youngs_modulus=0.18e6, density=1180.0)], damping=0.01)
+    axis = (x[-1] - x[0]) / np.linalg.norm(x[-1] - x[0])
+    bcs = BoundaryConditions(model)
+    for name, nodes, sign in (("left", [0, 1], -1.0), ("right", [-2, -1], 1.0)):
+        u = sign * 6e-3 * axis
+        bcs.move(name, nodes=nodes, path=lambda t, u=u: max(0.0, t - args.wait) * u)
+    contact = ContactInteraction(model, ContactSettings(mu=args.mu))
+    return Simulation(model, bcs, SolverSettings(dt=args.dt), interactions=[contact])
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--geometry", default=None, help="node file (default: imc-der n1, else overhand_n1)")
@@ -78,6 +107,10 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=62.0, help="s simulated in all")
     ap.add_argument("--dt", type=float, default=2.5e-3)
     ap.add_argument("--mu", type=float, default=0.3)
+    ap.add_argument("--force-curve", default=None, metavar="CSV",
+                    help="write the pull force per step (time s, force N) to this file")
+    ap.add_argument("--compare", default=None, metavar="CSV",
+                    help="a --force-curve file of an earlier run: report the largest difference from it")
     args = ap.parse_args()
     x, name = start_shape(args.geometry, args.n_nodes)
     build(x, args).run(5 * args.dt)  # compile (and load cached kernels) outside the timing
@@ -95,7 +128,8 @@ def main() -> None:
              "linear_solve": tm["linear_solve"], "broad_phase": broad}
     split["python_other"] = wall - sum(split.values())
     axis = (x[-1] - x[0]) / np.linalg.norm(x[-1] - x[0])
-    f_end = float(np.dot(log[["right_fx", "right_fy", "right_fz"]].iloc[-1].to_numpy(), axis))
+    force = log[["right_fx", "right_fy", "right_fz"]].to_numpy() @ axis
+    f_end = float(force[-1])
     out = {"job": f"{name}, N = {len(x)}, {args.duration:g} s at dt = {args.dt:g} s, mu = {args.mu:g}",
            "cpu_s": round(cpu, 3), "wall_s": round(wall, 3), "steps": steps,
            "ms_per_step": round(1e3 * wall / steps, 4), "iterations_per_step": round(iters / steps, 4),
@@ -105,7 +139,22 @@ def main() -> None:
            "peak_rss_mib": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),
            "split_s": {k: round(v, 3) for k, v in split.items()}, "final_pull_force_N": f_end,
            "failed_attempts": int(sim.n_failures)}
+    curve = np.column_stack([log["time"].to_numpy(), force])
+    if args.force_curve:
+        np.savetxt(args.force_curve, curve, delimiter=",", header="time_s,pull_force_N", fmt="%.17g")
+    if args.compare:
+        out["compare"] = compare_curves(curve, np.loadtxt(args.compare, delimiter=",", ndmin=2))
     print(json.dumps(out))
+
+
+def compare_curves(curve: np.ndarray, ref: np.ndarray) -> dict:
+    """Difference of two force curves ``(steps, 2)`` (time s, force N): whether the step times are
+    the same, the largest absolute difference (N) and that relative to the largest force of ``ref``."""
+    if curve.shape != ref.shape or not np.array_equal(curve[:, 0], ref[:, 0]):
+        return {"same_steps": False, "steps": [int(curve.shape[0]), int(ref.shape[0])]}
+    diff = float(np.max(np.abs(curve[:, 1] - ref[:, 1])))
+    scale = float(np.max(np.abs(ref[:, 1])))
+    return {"same_steps": True, "max_abs_diff_N": diff, "max_rel_diff": diff / scale if scale > 0 else diff}
 
 
 if __name__ == "__main__":

@@ -43,3 +43,21 @@ def split_max_abs(x, theta_mask):
         elif a > mp:
             mp = a
     return mp, mt
+
+
+@njit(cache=True)
+def free_part(r_full, fixed, r_free):
+    """``r_free = r_full`` with the prescribed unknowns (``fixed``, bool) zeroed; ``(n_dofs,)``."""
+    for i in range(r_full.shape[0]):
+        r_free[i] = 0.0 if fixed[i] else r_full[i]
+
+
+@njit(cache=True)
+def max_abs(x):
+    """``max |x|`` over ``x`` ``(n,)`` (0 for an empty array)."""
+    m = 0.0
+    for i in range(x.shape[0]):
+        a = abs(x[i])
+        if a > m:
+            m = a
+    return m

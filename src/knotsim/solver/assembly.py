@@ -14,7 +14,6 @@ Newton increment there is zero because prescribed values are set before the solv
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 from numba import njit
 
 # ---------------------------------------------------------------------------- banded kernels
@@ -107,6 +106,65 @@ def csc_add_diagonal(data, diag_slots, diag):
 
 
 @njit(cache=True)
+def csc_fill_elastic(data, diag_slots, diag, stretch_slots, stretch_blocks, bend_slots, bend_blocks):
+    """``data = 0``, then the diagonal ``diag (n,)`` and the elastic blocks ``(ne, 6, 6)`` and
+    ``(nb, 11, 11)`` added at their slots (one pass; the same sums in the same order as
+    :func:`csc_add_diagonal` followed by :func:`csc_add_blocks` twice)."""
+    for p in range(data.shape[0]):
+        data[p] = 0.0
+    for i in range(diag.shape[0]):
+        data[diag_slots[i]] += diag[i]
+    for slots, blocks in ((stretch_slots, stretch_blocks), (bend_slots, bend_blocks)):
+        nb, k, _ = blocks.shape
+        for b in range(nb):
+            for i in range(k):
+                for j in range(k):
+                    data[slots[b, i, j]] += blocks[b, i, j]
+
+
+@njit(cache=True)
+def csc_constrained_slots(indptr, indices, fixed):
+    """Slots of the CSC pattern in a prescribed row or column: ``(zero, one)`` int64 arrays, the
+    off-diagonal ones (set to 0 by :func:`csc_set_slots`) and the diagonal ones (set to 1)."""
+    n = indptr.shape[0] - 1
+    nz = 0
+    no = 0
+    for c in range(n):
+        for p in range(indptr[c], indptr[c + 1]):
+            r = indices[p]
+            if fixed[r] or fixed[c]:
+                if r == c:
+                    no += 1
+                else:
+                    nz += 1
+    zero = np.empty(nz, np.int64)
+    one = np.empty(no, np.int64)
+    nz = 0
+    no = 0
+    for c in range(n):
+        for p in range(indptr[c], indptr[c + 1]):
+            r = indices[p]
+            if fixed[r] or fixed[c]:
+                if r == c:
+                    one[no] = p
+                    no += 1
+                else:
+                    zero[nz] = p
+                    nz += 1
+    return zero, one
+
+
+@njit(cache=True)
+def csc_set_slots(data, zero, one):
+    """``data[zero] = 0``, ``data[one] = 1`` (identity rows and columns of prescribed unknowns,
+    with the slots of :func:`csc_constrained_slots`)."""
+    for t in range(zero.shape[0]):
+        data[zero[t]] = 0.0
+    for t in range(one.shape[0]):
+        data[one[t]] = 1.0
+
+
+@njit(cache=True)
 def csc_constrain(indptr, indices, data, fixed):
     n = indptr.shape[0] - 1
     for c in range(n):
@@ -120,21 +178,14 @@ def csc_constrain(indptr, indices, data, fixed):
 
 
 def csc_pattern(n: int, dof_groups: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Sorted CSC structure ``(indptr, indices)`` of the union of all blocks plus the diagonal."""
-    rows = [np.arange(n, dtype=np.int64)]
-    cols = [np.arange(n, dtype=np.int64)]
+    """Sorted CSC structure ``(indptr, indices)`` of the union of all blocks plus the diagonal
+    (``dof_groups``: ``(k, m)`` int arrays of block unknowns, any ``m``)."""
+    indptr = np.arange(n + 1, dtype=np.int64)
+    indices = np.arange(n, dtype=np.int64)
     for dofs in dof_groups:
-        if dofs.size == 0:
-            continue
-        k = dofs.shape[1]
-        rows.append(np.repeat(dofs, k, axis=1).ravel())
-        cols.append(np.tile(dofs, (1, k)).ravel())
-    r = np.concatenate(rows)
-    c = np.concatenate(cols)
-    m = sp.csc_matrix((np.ones(r.size), (r, c)), shape=(n, n))
-    m.sum_duplicates()
-    m.sort_indices()
-    return m.indptr.astype(np.int64), m.indices.astype(np.int64)
+        if dofs.size:
+            indptr, indices, _ = merge_pattern(n, indptr, indices, np.ascontiguousarray(dofs, dtype=np.int64))
+    return indptr, indices
 
 
 def bandwidth(dof_groups: list[np.ndarray]) -> int:

@@ -11,9 +11,6 @@
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.linalg import lapack
-from scipy.sparse.linalg import splu
 
 from knotsim.errors import KnotsimError
 from knotsim.solver.banded import ldlt_banded_factor, ldlt_banded_substitute
@@ -43,6 +40,8 @@ class BandedSolver:
                 self._factors = ("ldlt", w, d, kl)
                 return
             self.fallbacks += 1
+        from scipy.linalg import lapack  # loaded only when this fallback is used
+
         lu, piv, info = lapack.dgbtrf(np.array(ab, order="F"), kl, ku)
         if info != 0:
             raise LinearSolveError(f"banded LU failed (LAPACK info={info}): singular Newton matrix")
@@ -54,6 +53,8 @@ class BandedSolver:
             x = np.empty_like(rhs)
             ldlt_banded_substitute(f[1], f[2], f[3], rhs, x)
             return x
+        from scipy.linalg import lapack
+
         x, info = lapack.dgbtrs(f[1], f[3], f[4], rhs, f[2])
         return x
 
@@ -86,6 +87,9 @@ class SparseSolver:
                 return
             except ZeroPivotError:
                 self.fallbacks += 1
+        import scipy.sparse as sp  # the pivoting fallback only: scipy is not loaded by a run otherwise
+        from scipy.sparse.linalg import splu
+
         A = sp.csc_matrix((data, indices, indptr), shape=(n, n))
         try:
             self._splu = splu(A, permc_spec="MMD_AT_PLUS_A")

@@ -19,10 +19,12 @@ import numpy as np
 from knotsim.energies.elastic import ElasticEnergy, FrameSource
 from knotsim.errors import ConfigError
 from knotsim.solver import assembly as asm
-from knotsim.solver._kernels import implicit_residual, split_max_abs
+from knotsim.solver._kernels import free_part, implicit_residual, max_abs, split_max_abs
 from knotsim.solver.linear import BandedSolver, LinearSolveError, SparseSolver
 from knotsim.solver.newton import newton_solve
 from knotsim.solver.state import State
+
+_EPS = float(np.finfo(float).eps)
 
 
 class Interaction(Protocol):
@@ -167,16 +169,14 @@ class _StepSystem:
         self.energies = {}
         self.merit = float("nan")
         self._r_full = np.zeros(stepper.model.n_dofs)
-        m = stepper.model
         if static:
-            self.diag = np.zeros(m.n_dofs)
+            self.diag = np.zeros(stepper.model.n_dofs)
             self.roundoff_factor = 1.0
         else:
-            self.diag = m.mass / dt**2 + stepper.damping_coef / dt
+            self.diag, diag_max = stepper._diagonal(dt)
             # The inertia term M (q - q_n - dt v_n)/dt^2 cannot be evaluated more accurately than
             # about eps |q| M/dt^2: at tiny steps the tolerance is raised to that round-off level.
-            eps_force = 64.0 * np.finfo(float).eps * float(np.max(np.abs(state_in.q)) + 1e-300) * float(
-                np.max(self.diag[m.position_mask]))
+            eps_force = 64.0 * _EPS * (max_abs(state_in.q) + 1e-300) * diag_max
             self.roundoff_factor = max(1.0, eps_force / stepper.force_tol)
         self._mode = None
 
@@ -185,7 +185,9 @@ class _StepSystem:
         s = self.s
         el = s.elastic
         t0 = time.perf_counter()
+        s._frames_at = None
         e_el = el.evaluate(q, self.source, want_jacobian)
+        s._frames_at = (q.copy(), self.source)  # the elastic frames are those of q (see store_configuration)
         r_full = self._r_full
         r = np.empty_like(r_full)
         merit = e_el + implicit_residual(el.grad, self.f_ext, q, self.q_n, self.v_n, s.model.mass,
@@ -201,8 +203,7 @@ class _StepSystem:
         self.energies["elastic"] = e_el
         s.timers["forces"] += time.perf_counter() - t0
         if s.interactions:
-            r[:] = r_full
-            r[self.fixed] = 0.0
+            free_part(r_full, self.fixed, r)
         self.last_full_residual = r_full
         if want_jacobian:
             t1 = time.perf_counter()
@@ -275,6 +276,11 @@ class Stepper:
         self._elastic_pattern = None
         self._needs_factor = True
         self._active = None
+        self._data = np.zeros(0)
+        self._constrained = None  # (pattern id, fixed mask, zero slots, one slots)
+        self._diag_cache = None  # (dt, diagonal mass/dt^2 + damping/dt, its largest position entry)
+        #: ``(q, frame source)`` of the last elastic evaluation (the frames the elastic object holds)
+        self._frames_at = None
         #: Set by the driver for retries of a failed step: use full Newton (fresh Jacobian every
         #: iteration), the most robust choice, whatever ``settings.jacobian_reuse`` says.
         self.full_newton = False
@@ -285,6 +291,16 @@ class Stepper:
         self.timers = {"forces": 0.0, "assembly": 0.0, "linear_solve": 0.0}
 
     # -- assembly -------------------------------------------------------------------------
+    def _diagonal(self, dt: float) -> tuple[np.ndarray, float]:
+        """``M/dt^2 + D/dt`` ``(n_dofs,)`` (kg/s^2) and its largest position entry, kept while
+        ``dt`` (s) is unchanged (callers must not modify the array)."""
+        c = self._diag_cache
+        if c is None or c[0] != dt:
+            m = self.model
+            diag = m.mass / dt**2 + self.damping_coef / dt
+            c = self._diag_cache = (dt, diag, float(np.max(diag[m.position_mask])))
+        return c[1], c[2]
+
     def _interaction_pattern(self) -> tuple[list[np.ndarray], tuple, int]:
         """Block unknowns of every interaction, a key that changes with them, and the bandwidth.
 
@@ -352,14 +368,19 @@ class Stepper:
             self._inter_slots = [asm.csc_block_map(indptr, indices, d) if d.size else None for d in inter_dofs]
             self._pattern_key = key
             self._pattern_id += 1
-        data = np.zeros(self._indices.size)
-        asm.csc_add_diagonal(data, self._diag_slots, diag)
-        asm.csc_add_blocks(data, self._stretch_slots, el.stretch_hess)
-        asm.csc_add_blocks(data, self._bend_slots, el.bend_hess)  # bending + twisting
+        if self._data.size != self._indices.size:
+            self._data = np.zeros(self._indices.size)
+        data = self._data  # refilled in place: the factorisation keeps no reference to it
+        asm.csc_fill_elastic(data, self._diag_slots, diag, self._stretch_slots, el.stretch_hess, self._bend_slots,
+                             el.bend_hess)  # bending + twisting in bend_hess
         for slots, blocks in zip(self._inter_slots, inter_blocks, strict=True):
             if slots is not None and blocks is not None:
                 asm.csc_add_blocks(data, slots, blocks)
-        asm.csc_constrain(self._indptr, self._indices, data, fixed)
+        c = self._constrained
+        if c is None or c[0] != self._pattern_id or not np.array_equal(c[1], fixed):
+            c = self._constrained = (self._pattern_id, fixed.copy(),
+                                     *asm.csc_constrained_slots(self._indptr, self._indices, fixed))
+        asm.csc_set_slots(data, c[2], c[3])
         self._system = ("sparse", data)
         self._needs_factor = True
         self.last_solver = "sparse"
@@ -414,8 +435,11 @@ class Stepper:
     def store_configuration(self, state: State, q: np.ndarray, source: FrameSource) -> None:
         """Set ``state.q`` to ``q`` with its tangents, reference directors and reference twist
         (transported from ``source``; recomputed, since the last evaluation may have been a
-        line-search trial at another point)."""
-        self.elastic.update_frames(q, source)
+        line-search trial at another point; not when the last evaluation was at ``q`` itself)."""
+        last = self._frames_at
+        if last is None or last[1] is not source or not np.array_equal(last[0], q):
+            self.elastic.update_frames(q, source)
+            self._frames_at = (q.copy(), source)
         state.q = q
         state.d1 = self.elastic.d1.copy()
         state.tangents = self.elastic.tangents.copy()
