@@ -9,13 +9,17 @@ from __future__ import annotations
 import math
 import time as _time
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from knotsim.errors import ConfigError, SimulationError
 from knotsim.solver.state import State, initial_state
+from knotsim.solver.steplog import StepLog
 from knotsim.solver.stepper import SolverSettings, StepFailure, Stepper, StepResult
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 class Simulation:
@@ -50,7 +54,9 @@ class Simulation:
         self._continue_end: float | None = None
         #: the running sum of steps before it was set to the requested end time (see :meth:`advance`)
         self._unsnapped_time: float | None = None
-        self.rows: list[dict] = []
+        #: the per-step log: one dict per accepted step (a :class:`~knotsim.solver.steplog.StepLog`,
+        #: packed by columns; the newest rows are live dicts)
+        self.rows: StepLog = StepLog()
         self.n_failures = 0
         #: ``[(name, t_start, t_end), ...]`` (s): stages of the run description; each log row names
         #: the stage its step belongs to (column ``stage``).
@@ -146,12 +152,14 @@ class Simulation:
         """
         if not (isinstance(duration, int | float) and duration > 0 and math.isfinite(duration)):
             raise ConfigError("duration", f"must be a positive time in s, got {duration!r}")
-        from knotsim.io.run_output import RunOutput
-
         t_start_run = self.state.time if self._continue_end is None else self._continue_end
         self._continue_end = None
         t_end = t_start_run + duration
-        out = RunOutput(output_dir, self, output_interval) if output_dir is not None else None
+        out = None
+        if output_dir is not None:
+            from knotsim.io.run_output import RunOutput  # (h5py is loaded only by runs that write files)
+
+            out = RunOutput(output_dir, self, output_interval)
         bar = _progress_bar(duration, progress)
         wall0 = _time.perf_counter()
         outcome = "completed"
@@ -187,7 +195,7 @@ class Simulation:
 
     def log(self) -> pd.DataFrame:
         """Per-step log so far (one row per accepted step)."""
-        return pd.DataFrame(self.rows)
+        return self.rows.to_frame()
 
     # ------------------------------------------------------------------ checkpoints
     def component_states(self) -> dict[str, tuple[dict, dict]]:
