@@ -28,6 +28,12 @@ EXPECTED = {
     "grief_bend": (6, -6),
     "carrick_bend": (8, 0),
     "sheet_bend": (7, -3),
+    "double_sheet_bend": (12, -4),
+    "hunters_bend": (12, -12),
+    "zeppelin_bend": (10, 0),
+    "ashley_bend": (12, -4),
+    "alpine_butterfly_bend": (12, 2),
+    "double_fishermans_bend": (26, 10),
 }
 RESOLUTIONS = (101, 301)
 
