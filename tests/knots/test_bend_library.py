@@ -23,6 +23,21 @@ BENDS = {
     "grief_bend": ("grief bend", "grief_loose", True),
     "sheet_bend": ("sheet bend", "bowline13", False),   # the sheet bend is the bowline's tangle
     "carrick_bend": (None, "carrick14", False),
+    # control points derived from Patil's centrelines (the TOML comments say how)
+    "hunters_bend": ("hunter's bend", "hunter13", False),
+    "zeppelin_bend": (None, "zeppelin14", False),
+    "ashley_bend": (None, "ashley13", False),
+    "alpine_butterfly_bend": ("alpine butterfly bend", "alpine13", False),
+    # no Patil shape: checked against the knot itself below
+    "double_sheet_bend": (None, None, False),
+    "double_fishermans_bend": (None, None, False),
+}
+# the bends whose every rope, in Patil's shapes, ties an overhand knot: (self-closure types)
+TREFOIL_ROPES = {
+    "hunters_bend": ["trefoil_left", "trefoil_left"],
+    "zeppelin_bend": ["trefoil_left", "trefoil_right"],
+    "ashley_bend": ["trefoil_left", "trefoil_left"],
+    "alpine_butterfly_bend": ["trefoil_left", "trefoil_right"],
 }
 
 
@@ -38,7 +53,7 @@ def _standing(geo):
 
 def test_bends_listed():
     names = {n for n, _ in list_knots()}
-    assert set(BENDS) <= names
+    assert set(BENDS) <= names and len(BENDS) == 12
 
 
 @pytest.mark.parametrize("name", sorted(BENDS))
@@ -50,7 +65,8 @@ def test_bend_named(name):
 
 def test_identify_bend_table():
     assert identify_bend("6_1", 0) == "thief bend" and identify_bend("3_1", -3) == "grief bend"
-    assert identify_bend("6_1", 3) is None and identify_bend(None, 0) is None
+    assert identify_bend("6_1", 3) == "hunter's bend" and identify_bend("6_1", 1) is None
+    assert identify_bend(None, 0) is None and identify_bend("0_1", -1) == "alpine butterfly bend"
     assert len(set(BEND_TABLE.values())) == len(BEND_TABLE)
 
 
@@ -87,3 +103,77 @@ def test_same_topology_as_patil(name):
     assert mine.alexander == theirs.alexander
     assert mine.jones == (_mirror(theirs.jones) if mirror else theirs.jones)
     assert mine.bend == theirs.bend
+
+
+@pytest.mark.parametrize("name", sorted(TREFOIL_ROPES))
+def test_each_rope_ties_an_overhand(name):
+    """Hunter's, zeppelin, Ashley's and alpine butterfly: each rope closed on itself is a trefoil, of the
+    hands of Patil's shape (opposite hands in the zeppelin and the alpine butterfly)."""
+    res = analyze(list(built(name).ropes))
+    assert sorted(res.component_types) == sorted(TREFOIL_ROPES[name])
+
+
+def test_double_fishermans_is_two_double_overhands():
+    """Each rope's end coils twice round both ropes and tucks back through its coils: alone, each rope is
+    the (2, 5) torus knot (every coil turn adds two crossings to the two-strand twist of the overhand,
+    3_1), and each of the 2 + 2 turns goes once round the other rope: linking number 4."""
+    res = analyze(list(built("double_fishermans_bend").ropes))
+    assert [t[:3] for t in res.component_types] == ["5_1", "5_1"]
+    assert res.component_types[0] == res.component_types[1]      # the two halves are turned copies
+    assert abs(int(res.linking[0, 1])) == 4
+
+
+def test_double_sheet_is_a_sheet_with_a_second_turn():
+    """The second turn goes round both legs of the bight, which run in opposite directions: each rope is
+    still unknotted and the ropes link as in the sheet bend; the second turn adds its two crossings with
+    each leg (4) and its second tuck (1) to the sheet bend's 7 crossings."""
+    double, single = analyze(list(built("double_sheet_bend").ropes)), analyze(list(built("sheet_bend").ropes))
+    assert double.component_types == ["unknot", "unknot"]
+    assert int(double.linking[0, 1]) == int(single.linking[0, 1]) != 0
+    inter = [sum(1 for c in built(n).crossings if c.over_rope != c.under_rope) for n in ("double_sheet_bend", "sheet_bend")]
+    assert inter == [10, 6] and built("double_sheet_bend").n_crossings == built("sheet_bend").n_crossings + 5
+
+
+def _patil_ends(spec):
+    """Patil's end numbers 1-4 on a drawing (``patil.ends``) as ``(rope index, 0 | 1)``."""
+    out = []
+    for item in spec.meta["patil"]["ends"]:
+        rope, end = item.split(".")
+        out.append((spec.rope_index(rope), {"start": 0, "end": 1}[end]))
+    return out
+
+
+PATIL_META = [n for n in sorted(BENDS) if "patil" in built(n).spec.meta]
+
+
+def test_patil_metadata():
+    """The drawings derived from Patil's shapes name his four ends (1, 2 on one rope, 3, 4 on the other)
+    and his loadings; the drawing's own loading is the one of the shape it was derived from."""
+    assert set(PATIL_META) == {"hunters_bend", "zeppelin_bend", "ashley_bend", "alpine_butterfly_bend"}
+    for name in PATIL_META:
+        geo = built(name)
+        meta = geo.spec.meta["patil"]
+        ends = _patil_ends(geo.spec)
+        assert sorted(ends) == [(0, 0), (0, 1), (1, 0), (1, 1)]
+        assert ends[0][0] == ends[1][0] != ends[2][0] == ends[3][0]
+        assert meta["shape"] == BENDS[name][1] and meta["shape"][-2:] in meta["loadings"]
+        i, j = (int(c) for c in meta["shape"][-2:])
+        assert _standing(geo) == (ends[i - 1], ends[j - 1])
+
+
+@needs_patil
+@pytest.mark.parametrize("name,loading", [(n, ld) for n in PATIL_META for ld in built(n).spec.meta["patil"]["loadings"]])
+def test_patil_loadings(name, loading):
+    """Every loading Patil simulated, applied to the drawing at his end numbers, gives the loaded-bend
+    closure of his shape for that loading (Alexander; Jones up to mirror image): one drawing, his loadings."""
+    from knotsim.io.geometry import read_node_file
+
+    geo = built(name)
+    ends = _patil_ends(geo.spec)
+    family = geo.spec.meta["patil"]["shape"][:-2]
+    patil = read_node_file(PATIL / f"{family}{loading}_initial.mat")
+    i, j = (int(c) for c in loading)
+    mine = analyze_bend(geo.ropes, (ends[i - 1], ends[j - 1]))
+    theirs = analyze_bend(patil, ((0, 0), (1, 0)))
+    assert mine.alexander == theirs.alexander
+    assert mine.jones in (theirs.jones, _mirror(theirs.jones))

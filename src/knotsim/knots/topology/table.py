@@ -128,12 +128,17 @@ def identify_knot(alexander: Sequence[int] | None, jones: dict | None) -> KnotEn
 #: handedness ignored: for bends whose standing ends and tails alternate around the knot, thief and
 #: grief, it is a convention of the closure), and the absolute linking number of the two ropes each
 #: closed on itself. Reef and thief (granny and grief) are one drawing loaded at different ends.
+#: Hunter's and the alpine butterfly bend as drawn and loaded in the library (Patil's hunter13 and
+#: alpine13 loadings); the zeppelin, Ashley's, carrick, double sheet and double fisherman's closures are
+#: not in :data:`KNOT_TABLE`, so those bends are not named.
 BEND_TABLE: dict[tuple[str, int], str] = {
     ("3_1#3_1*", 0): "reef bend",
     ("3_1#3_1", 3): "granny bend",
     ("6_1", 0): "thief bend",
     ("3_1", 3): "grief bend",
     ("6_2", 1): "sheet bend",
+    ("6_1", 3): "hunter's bend",
+    ("0_1", 1): "alpine butterfly bend",
 }
 
 
