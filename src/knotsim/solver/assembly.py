@@ -114,12 +114,16 @@ def csc_fill_elastic(data, diag_slots, diag, stretch_slots, stretch_blocks, bend
         data[p] = 0.0
     for i in range(diag.shape[0]):
         data[diag_slots[i]] += diag[i]
-    for slots, blocks in ((stretch_slots, stretch_blocks), (bend_slots, bend_blocks)):
-        nb, k, _ = blocks.shape
-        for b in range(nb):
-            for i in range(k):
-                for j in range(k):
-                    data[slots[b, i, j]] += blocks[b, i, j]
+    nb, k, _ = stretch_blocks.shape
+    for b in range(nb):
+        for i in range(k):
+            for j in range(k):
+                data[stretch_slots[b, i, j]] += stretch_blocks[b, i, j]
+    nb, k, _ = bend_blocks.shape
+    for b in range(nb):
+        for i in range(k):
+            for j in range(k):
+                data[bend_slots[b, i, j]] += bend_blocks[b, i, j]
 
 
 @njit(cache=True)
