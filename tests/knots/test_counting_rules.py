@@ -113,3 +113,54 @@ def test_patil_loose_shapes_count_like_the_drawings(name, bend):
     ropes = read_node_file(PATIL / f"{name}_initial.mat")
     r = counting_rules(ropes, [(0, 0), (1, 0)])
     assert (r.n_crossings, r.twist_fluctuation, r.circulation) == FOUR[bend]
+
+
+# The six bends added to the atlas: only what follows from the definitions is tested here (no published
+# values). Their numbers as drawn (docs/knots.md): hunter's 12/0/2, zeppelin 10/2/5, Ashley's 12/5.5/4,
+# alpine butterfly 12/3.5/2, double sheet 12/3.5/1, double fisherman's 26/5/10 (N/τ/Γ).
+NEW = ["hunters_bend", "zeppelin_bend", "ashley_bend", "alpine_butterfly_bend", "double_sheet_bend",
+       "double_fishermans_bend"]
+
+
+def _ntg(r):
+    return r.n_crossings, r.twist_fluctuation, r.circulation
+
+
+@pytest.mark.parametrize("name", NEW)
+def test_new_bends_n_is_the_drawings_crossings(name):
+    """N is the number of crossings the drawing declares (half its over/under letters); the projection
+    of a connected tangle with four ends has N - 1 bounded faces; τ is a multiple of 1/2."""
+    geo = built(name)
+    r = knot_counting_rules(geo)
+    assert r.n_crossings == geo.spec.n_crossings == sum(len(x.passes) for x in geo.spec.ropes) // 2
+    assert r.n_bounded_faces == r.n_crossings - 1
+    assert 2 * r.twist_fluctuation == sum(r.sign_changes) and r.circulation <= r.n_bounded_faces
+
+
+@pytest.mark.parametrize("name", NEW)
+def test_new_bends_planar_isotopy_and_view(name):
+    """N, τ, Γ belong to the diagram: a rotation of the drawing about the view axis and a shift leave them
+    (and every twist) unchanged; so does looking from behind (the projection is reflected and every
+    crossing's over/under swapped: the signs stay); loading the two other ends reverses both ropes,
+    which changes no twist."""
+    geo = built(name)
+    loaded = [(geo.held[0].rope, int(geo.held[0].node > 0)), (geo.pulled[0].rope, int(geo.pulled[0].node > 0))]
+    ref = counting_rules(list(geo.ropes), loaded)
+    c, s = np.cos(0.7), np.sin(0.7)
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    moved = [x @ rot.T + np.array([0.3, -0.2, 0.05]) for x in geo.ropes]
+    for r in (counting_rules(moved, loaded), counting_rules(list(geo.ropes), loaded, direction=(0.0, 0.0, -1.0))):
+        assert _ntg(r) == _ntg(ref)
+        np.testing.assert_array_equal(np.sort(r.twists), np.sort(ref.twists))
+    other = counting_rules(list(geo.ropes), [(rope, 1 - end) for rope, end in loaded])
+    assert _ntg(other) == _ntg(ref)
+    np.testing.assert_array_equal(np.sort(other.twists), np.sort(ref.twists))
+
+
+def test_hunters_bend_has_no_twist_fluctuation():
+    """Hunter's bend as drawn: every crossing has the same sign (writhe -N with both ropes oriented from
+    their loaded first node), so every twist is the same and τ = 0, whatever Γ is."""
+    geo = built("hunters_bend")
+    r = knot_counting_rules(geo)
+    assert r.orientation == (1, 1) and geo.writhe == -r.n_crossings
+    assert set(r.twists) == {-1} and r.twist_fluctuation == 0.0
