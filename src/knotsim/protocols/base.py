@@ -149,7 +149,12 @@ def _topology(curves, closed, pairing) -> dict[str, Any]:
     if res is None:
         return {"knot_type": None, "error": "; ".join(errors)}
     sig = res.knot_type if res.knot_type != "unknown" else f"unknown (Alexander {res.alexander}, det {res.determinant})"
+    jones = None if res.jones is None else " ".join(f"{c:+d}t^{e}" for e, c in sorted(res.jones.items()) if c)
+    lk = int(sum(res.linking[i, j] for i in range(res.n_components) for j in range(i + 1, res.n_components)))
+    if res.n_components > 1:  # a link: its components' own knot types and the total linking number
+        sig = f"{res.knot_type} ({' + '.join(res.component_types)}; lk {lk})"
     return {"knot_type": res.knot_type, "signature": sig, "rolfsen": res.rolfsen, "alexander": res.alexander,
+            "component_types": list(res.component_types), "linking_number": lk, "jones": jones,
             "determinant": int(res.determinant), "n_crossings_reduced": int(res.n_crossings_reduced),
             "writhe": int(res.writhe), "n_components": int(res.n_components), "closure": closure,
             "closure_errors": errors or None, "error": None}

@@ -283,8 +283,10 @@ def tail_draw_in(log: pd.DataFrame, column: str, kind: str = "decrease") -> floa
     return float(y[0] - y[-1]) if kind == "decrease" else float(y[-1] - y[0])
 
 
-#: Outcomes of a strength test, from the protocol's metrics (see :func:`knot_status`).
-VERDICTS = ("slipped", "loose", "undecided")
+#: Outcomes of a strength test, from the protocol's metrics (see :func:`knot_status`); ``"untied"``
+#: from the metrics when the topology cannot see it (the two ropes of a reef or thief bend, each
+#: closed on itself, are an unlink from the start: the protocol sees them come apart geometrically).
+VERDICTS = ("slipped", "loose", "undecided", "untied")
 
 #: Ropelength (rope length / diameter) of the ideal tight knots (Pieranski 1998; Baranska et al.
 #: 2004): trefoil 16.37, figure-eight 21.04, 5_1 23.55, 5_2 24.68. A composite knot is taken as the

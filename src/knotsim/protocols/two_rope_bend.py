@@ -30,7 +30,8 @@ the pull after ``t_pre`` (their times count from ``t_pre``); the run lasts ``t_p
 
 In both modes the log has ``F``, ``F_norm = F h^2 / EI``, ``F_held`` (N, axial reaction at the
 held end, positive in tension), ``u_pull`` (m): displacement of the pulled end along the axis
-since the start, and the tail lengths ``tail_a``, ``tail_b`` (m).
+since the start, the tail lengths ``tail_a``, ``tail_b`` (m) and ``rope_gap`` (m): the smallest
+distance between a node of one rope and a node of the other.
 
 Tail length (definition): the arc length from a free end to the first node, walking inwards,
 that lies within ``2h + delta + l/2`` (``l`` the edge length) of a node of the *other* rope, i.e.
@@ -38,6 +39,16 @@ the length of the free tail outside the knot (a bend is held by the two ropes in
 tail lying on its own standing part away from the knot does not count). Tail draw-in = decrease of the tail length over the
 run (positive when the knot swallows its tails); the pulled-end draw-in is the increase of
 ``u_pull``. In force control ``u_pull`` is the displacement that answers the applied force.
+
+Topology check (start and end): the two ropes, each closed on itself (radial closure), are a
+two-component link; the key compared is each rope's own knot type, the linking number and the
+link's Jones polynomial (:func:`link_key`). A different key is ``changed knot type``; a split link
+at the end (linking number 0, Jones polynomial of the split link of the ropes' own knots) is
+``untied``. The ropes of the reef and thief bends, closed on themselves, are an unlink from the
+start, so for them (and any bend whose link is split) ``untied`` is decided by geometry: the ropes
+are apart at the end (no node of one within ``4h`` of the other, ``rope_gap_final``). The whole-bend
+closure :func:`close_bend` (standing ends joined, tails joined) names a bend but moves with the
+loose tails and is not used for the outcome.
 
 Metrics: mean and peak ``F_norm`` over the run; the holding force ``F_norm_hold``: the largest
 0.5 s moving average of ``F_norm`` after the start-up transient (the first ``transient`` s,
@@ -104,6 +115,17 @@ def tail_lengths(ropes: list[np.ndarray], free_ends: list[tuple[int, int]], radi
         else:
             out.append(float(idx[0] if end == 0 else len(x) - 1 - idx[-1]) * seg)
     return out
+
+
+#: The ropes are *apart* when no node of one is within this many rod radii of a node of the other
+#: (centreline distance 4h: one rope diameter of clear space between their surfaces).
+APART_RADII = 4.0
+
+
+def rope_gap(ropes: list[np.ndarray]) -> float:
+    """Smallest distance (m) between a node of rope 0 and a node of rope 1 (``(N_k, 3)`` node
+    positions, m): the centreline distance, ``2h`` when the ropes touch."""
+    return float(cKDTree(ropes[1]).query(ropes[0])[0].min())
 
 
 def _core(x: np.ndarray, others: np.ndarray, cutoff: float, pad: int) -> slice:
@@ -211,6 +233,44 @@ def ends_interleaved(ropes: list[np.ndarray], standing: list[tuple[int, int]]) -
             ends.append((math.atan2(float(p @ e[1]), float(p @ e[0])), (r, node) in standing))
     kinds = [k for _, k in sorted(ends)]
     return all(kinds[i] != kinds[(i + 1) % 4] for i in range(4))
+
+
+def _jones_text(v: dict) -> str:
+    """Jones polynomial ``{exponent: coefficient}`` as text, as the protocols' topology record
+    writes it (``"-1t^1/2 -1t^5/2"``: coefficient and exponent of each term, exponents rising)."""
+    return " ".join(f"{c:+d}t^{e}" for e, c in sorted(v.items()) if c)
+
+
+def split_jones(types: list[str]) -> str | None:
+    """Jones polynomial (as :func:`_jones_text`) of the split link of two knots of the given table
+    types, ``V(K_a) V(K_b) (-t^(1/2) - t^(-1/2))``; ``None`` when a type is not in the table."""
+    from fractions import Fraction
+
+    from knotsim.knots.topology import KNOT_TABLE
+    from knotsim.knots.topology.polynomials import _pmul_jones
+
+    table = {e.knot_type: dict(e.jones) for e in KNOT_TABLE}
+    if any(t not in table for t in types):
+        return None
+    v = {Fraction(1, 2): -1, Fraction(-1, 2): -1}
+    for t in types:
+        v = _pmul_jones(v, table[t])
+    return _jones_text(v)
+
+
+def link_key(topo: dict) -> str:
+    """Topology key of a two-rope bend from its topology record (the two ropes each closed on
+    itself; keys ``component_types``, ``linking_number``, ``jones``): ``"unlink"`` when the ropes
+    have come apart (linking number 0 and the Jones polynomial of the split link of the two ropes'
+    own knots, :func:`split_jones`; the ropes may keep their own knots, e.g. the overhands of a
+    hunter's bend), else ``"A + B; lk n; V = ..."`` (the Jones polynomial left out when it was not
+    computed). Two records with the same key are the same link as far as these invariants tell."""
+    types = [str(t) for t in topo["component_types"]]
+    lk = int(topo.get("linking_number") or 0)
+    jones = topo.get("jones")
+    if lk == 0 and jones is not None and jones == split_jones(types):
+        return "unlink"
+    return f"{' + '.join(types)}; lk {lk}" + (f"; V = {jones}" if jones is not None else "")
 
 
 def pre_tighten_time(params) -> float:
@@ -329,13 +389,13 @@ class TwoRopeBend(LoadingProtocol):
         return t_pre + 40.0
 
     def closure(self, ctx: RunContext, curves):
-        """One closed curve: the knot core (each rope cut to its part within ``5h + delta`` of the
-        other rope), standing (held, pulled) ends joined far away *above* it, tails joined far away
-        *below* it (see :func:`close_bend`)."""
-        d = ctx.data
-        cutoff = 2.5 * 2.0 * ctx.radius + float(ctx.params.contact.get("delta", 5e-4))
-        return [close_bend(curves, d["axis"], (d["held"].rope, d["held_end"]), (d["pulled"].rope, d["pulled_end"]),
-                           core_cutoff=cutoff)], [True], None
+        """The two ropes, each closed on itself (:func:`~knotsim.knots.topology.close_curves`,
+        radial): a two-component link whose invariants (each rope's knot type, the linking number,
+        the Jones polynomial) change only when rope passes through rope. (The bend closure of
+        :func:`close_bend`, which joins the standing ends together and the tails together, names the
+        bend but depends on where the loose tails lie: it flagged hunter's, Ashley's and the double
+        fisherman's bends as changed and the alpine butterfly as untied after 0.3 s of pull.)"""
+        return [np.asarray(c, float) for c in curves], None, None
 
     def record(self, ctx: RunContext, q, t, reactions) -> dict:
         m = ctx.model
@@ -351,7 +411,7 @@ class TwoRopeBend(LoadingProtocol):
         delta = float(ctx.params.contact.get("delta", 5e-4))
         ta, tb = tail_lengths(ropes, ctx.data["free_ends"], ctx.radius, delta)
         return {"F": f, "F_norm": f * ctx.radius**2 / ctx.EI, "F_held": f_held, "u_pull": u,
-                "tail_a": ta, "tail_b": tb}
+                "tail_a": ta, "tail_b": tb, "rope_gap": rope_gap(ropes)}
 
     def metrics(self, ctx: RunContext, log) -> dict:
         t_pre = float(getattr(ctx, "data", {}).get("t_pre", 0.0))
@@ -371,6 +431,10 @@ class TwoRopeBend(LoadingProtocol):
             "tail_b_draw_in": tail_draw_in(log, "tail_b"),
             "pull_draw_in": tail_draw_in(log, "u_pull", kind="increase"),
         }
+        if "rope_gap" in log.columns:
+            gap = float(log["rope_gap"].iloc[-1])
+            out["rope_gap_final"] = gap
+            out["ropes_apart"] = bool(gap > APART_RADII * ctx.radius)
         p = ctx.params
         t_skip = float(p["transient"])
         if not t_skip >= 0:
@@ -399,10 +463,13 @@ class TwoRopeBend(LoadingProtocol):
         return out
 
     def topology_key(self, ctx: RunContext, topo: dict) -> str | None:
-        """The knot type, without its handedness when the bend's standing ends and tails alternate
-        around the knot (thief, grief): their closure must cross one join over the other, and which
-        way round is a convention (:func:`close_bend`) that can flip once rope has travelled around
-        the ring; a real change (untied, another knot) still shows."""
+        """What must stay equal for the bend to count as unchanged: :func:`link_key` of the two
+        ropes each closed on itself (``"unlink"`` once they have come apart: the outcome is then
+        ``untied``). A one-component record (a bend closure, as written by earlier versions) keeps
+        the old rule: its knot type, without handedness when the standing ends and tails alternate
+        around the knot (thief, grief), whose closure must cross one join over the other."""
+        if topo.get("n_components") == 2 and topo.get("component_types") is not None:
+            return link_key(topo)
         key = topo.get("signature")
         if key is None or not ctx.data.get("ends_interleaved") or topo.get("knot_type") in ("unknot", "unlink"):
             return key
@@ -412,9 +479,16 @@ class TwoRopeBend(LoadingProtocol):
         return metrics.get("slip_onset") is not None
 
     def verdict(self, ctx: RunContext, metrics: dict) -> str | None:
-        """``slipped``, else ``undecided`` when the pull after the transient is shorter than the
+        """``untied`` when the two ropes are apart at the end (no nodes within ``4h``,
+        :data:`APART_RADII`) and their link is split (:func:`link_key`; the reef and thief bends'
+        ropes are an unlink from the start, so only the geometry shows them coming apart), else
+        ``slipped``, else ``undecided`` when the pull after the transient is shorter than the
         evidence the slip rule needs (``slip_hold`` plus its 2 s smoothing in displacement control,
         0.5 s in force control), else held."""
+        end = getattr(ctx, "data", {}).get("topology_end") or {}
+        if (metrics.get("ropes_apart") and end.get("n_components") == 2 and end.get("component_types") is not None
+                and link_key(end) == "unlink"):
+            return "untied"
         if self.slipped(ctx, metrics):
             return "slipped"
         if not metrics.get("decidable", False):
