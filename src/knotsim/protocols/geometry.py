@@ -99,7 +99,7 @@ def geometry_from_source(path: str, *, radius: float | None, scale: float = 1.0,
                                length=(float(np.sum(frames[0].rest_edge_lengths))
                                        if frames[0].rest_edge_lengths is not None else _arc_length(ropes[0])),
                                source=str(p), state=state, protocol_hint=hint,
-                               knot_hint=knot_hint)
+                               knot_hint=knot_hint, held=_tie_hold(p, len(ropes[0])))
     else:
         if not p.exists():
             raise ConfigError("geometry", f"no such node file or run directory: {str(p)!r}")
@@ -115,6 +115,21 @@ def geometry_from_source(path: str, *, radius: float | None, scale: float = 1.0,
                                length=_arc_length(ropes[0]), source=str(p))
     check_edges(geo)
     return geo
+
+
+def _tie_hold(run_dir: Path, n_nodes: int) -> tuple:
+    """The hold hint of a tied reef or granny: ``hold_node`` of the tie's ``summary.json`` (the
+    bottom of the first knot's loop, see :func:`knotsim.knots.tying.half_knot_gap`), else ``()``."""
+    import json
+
+    f = run_dir / "summary.json"
+    try:
+        node = json.loads(f.read_text(encoding="utf-8")).get("hold_node") if f.is_file() else None
+    except (OSError, ValueError, AttributeError):
+        return ()
+    if isinstance(node, int) and 0 <= node < n_nodes:
+        return (EndRef(0, node),)
+    return ()
 
 
 def _provenance(run_dir: Path) -> tuple[str | None, str | None]:

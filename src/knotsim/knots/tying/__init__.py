@@ -103,6 +103,12 @@ What did not work / alternatives:
 
 from __future__ import annotations
 
+from knotsim.knots.tying.channel import (
+    SECOND_HALF_KNOT_PASSES,
+    channel_curve,
+    channel_header,
+    channel_sequence,
+)
 from knotsim.knots.tying.gap import HalfKnotGap, half_knot_gap
 from knotsim.knots.tying.hands import (
     Hand,
@@ -133,8 +139,12 @@ from knotsim.knots.tying.studied import post_header, post_sequence
 __all__ = [
     "EXPECTED",
     "HalfKnotGap",
+    "SECOND_HALF_KNOT_PASSES",
     "Hand",
     "TyingResult",
+    "channel_curve",
+    "channel_header",
+    "channel_sequence",
     "double_knot_sequence",
     "double_sequence",
     "dumps_toml",
