@@ -16,7 +16,7 @@ from knotsim.contact.distance import (
     edge_edge_distance,
 )
 from knotsim.contact.friction import friction_pair
-from knotsim.contact.potential import contact_pair_energy
+from knotsim.contact.potential import pair_energy
 from knotsim.contact.regularized_distance import regularized_beta_gradients
 
 
@@ -47,9 +47,28 @@ def pair_dofs_from_edges(pairs, edge_dofs):
 
 
 @njit(cache=True)
+def contact_evaluate_regularized(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
+                                 want_jacobian, blocks, pair_delta, pair_fc, pair_ff, pair_eta):
+    """:func:`contact_evaluate` with the regularized distance (every ``pair_eta > 0``)."""
+    return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
+                            blocks, pair_delta, pair_fc, pair_ff, pair_eta, True)
+
+
+@njit(cache=True)
+def contact_evaluate_exact(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
+                           want_jacobian, blocks, pair_delta, pair_fc, pair_ff, pair_eta):
+    """:func:`contact_evaluate` with the exact segment distance (``pair_eta`` unused)."""
+    return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
+                            blocks, pair_delta, pair_fc, pair_ff, pair_eta, False)
+
+
+@njit(inline="always", cache=True)
 def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
-                     blocks, pair_delta, pair_fc, pair_ff, pair_eta):
+                     blocks, pair_delta, pair_fc, pair_ff, pair_eta, regularized):
     """Contact and friction of every candidate pair at the Newton iterate ``q``.
+
+    Called through :func:`contact_evaluate_regularized` or :func:`contact_evaluate_exact`, which
+    inline it with a literal ``regularized``: a run compiles the loop of the distance it uses only.
 
     Parameters
     ----------
@@ -64,8 +83,9 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     pair_delta : (k,) float64 output, distance Δ (m) of every pair.
     pair_fc, pair_ff : (k, 12) float64 outputs, contact force ``−k_c ∇E`` and friction force (N) on
         the four nodes of every pair.
-    pair_eta : (k,) float64, parallel-edge regularization η of every pair's distance (0: exact
-        segment distance), see :mod:`knotsim.contact.regularized_distance`.
+    pair_eta : (k,) float64, parallel-edge regularization η > 0 of every pair's distance, see
+        :mod:`knotsim.contact.regularized_distance` (unused with the exact distance).
+    regularized : bool, ``True``: the regularized distance; ``False``: the exact segment distance.
 
     Returns
     -------
@@ -87,7 +107,7 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
         for m in range(12):
             p[m] = q[pair_dofs[k, m]]
         eta = pair_eta[k]
-        E, delta, bi, bj, case = contact_pair_energy(p, pair_d[k], tol, grad, hess, eta)
+        E, delta, bi, bj, case = pair_energy(p, pair_d[k], tol, grad, hess, eta, regularized)
         pair_delta[k] = delta
         if E <= 0.0:
             for m in range(12):
@@ -112,7 +132,7 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
                 for m in range(12):
                     for n in range(12):
                         dfc[m, n] = -kc * hess[m, n]
-                if eta > 0.0:
+                if regularized:
                     regularized_beta_gradients(p, eta, bi, bj, case, dbi, dbj)
                 else:
                     edge_edge_beta_gradients(p, bi, bj, case, dbi, dbj)

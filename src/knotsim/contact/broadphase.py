@@ -13,7 +13,7 @@ Algorithm (linear in the number of edges for bounded density):
    always have overlapping boxes.
 2. Boxes are put into a uniform grid of cubic cells (edge ``h`` about the typical box size). Each box
    is registered in every cell it overlaps; entries are grouped by cell with a counting sort on
-   the dense cell index (or, when the occupied region is sparse, ``np.argsort`` of packed keys).
+   the dense cell index (or, when the occupied region is sparse, a stable merge sort of packed keys).
    Boxes much larger than the cells ("big" edges, more than ``_MAX_CELLS_PER_EDGE`` cells) are not
    registered and are instead tested against every edge, so one very long edge cannot blow up
    memory or the cell size.
@@ -40,6 +40,7 @@ import math
 import numpy as np
 from numba import njit
 
+from knotsim._util.sorting import argsort_stable, median
 from knotsim.geometry.exclusion import MIN_INDEX_GAP, index_distance
 from knotsim.geometry.segments import segment_distance
 
@@ -110,7 +111,9 @@ def _boxes_overlap(lo, hi, a, b):
 def _grow(pairs):
     """Copy of the (cap, 2) pair buffer with twice the capacity."""
     bigger = np.empty((2 * pairs.shape[0], 2), dtype=np.int64)
-    bigger[: pairs.shape[0]] = pairs
+    for k in range(pairs.shape[0]):  # (a slice assignment costs seconds of first-run compile time)
+        bigger[k, 0] = pairs[k, 0]
+        bigger[k, 1] = pairs[k, 1]
     return bigger
 
 
@@ -207,7 +210,7 @@ def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
         size[e] = smax
 
     # 2. cell size: about the typical box size, never so small that an axis overflows the key
-    h = min(_CELL_FACTOR * np.median(size), size.max())
+    h = min(_CELL_FACTOR * median(size), size.max())
     extent = 0.0
     for k in range(3):
         extent = max(extent, gmax[k] - gmin[k])
@@ -278,7 +281,7 @@ def find_candidate_pairs(q, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
             order[fill[keys[m]]] = m
             fill[keys[m]] += 1
     else:
-        order = np.argsort(keys)
+        order = argsort_stable(keys)
         n_runs = 0
         for m in range(n_entries):
             if m == 0 or keys[order[m]] != keys[order[m - 1]]:

@@ -102,7 +102,7 @@ def case_kind(case: int) -> str:
     raise ValueError(f"unknown contact case code {case}")
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def _point_segment(x, a, d, dd):
     """Clamped ratio and squared distance from point ``x`` to segment ``a + t d`` (``dd = d·d``)."""
     if dd <= MIN_LENGTH2:
@@ -113,7 +113,7 @@ def _point_segment(x, a, d, dd):
     return t, v3.dot(w, w)
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def _case_code(bi, bj):
     at_i = bi == 0.0 or bi == 1.0
     at_j = bj == 0.0 or bj == 1.0
@@ -187,7 +187,7 @@ def edge_edge_distance(p):
     return delta, bi, bj, case
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def _beta_blocks(p, bi, bj, case):
     """∂β_i/∂x_l and ∂β_j/∂x_l (l = 0..3) as two 4-tuples of 3-vectors (1/m)."""
     x0, x1, x2, x3 = load_edges(p)

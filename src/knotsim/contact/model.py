@@ -49,7 +49,8 @@ import numpy as np
 
 from knotsim.contact.assembly import (
     approach_forces,
-    contact_evaluate,
+    contact_evaluate_exact,
+    contact_evaluate_regularized,
     nodal_force_summary,
     pair_dofs_from_edges,
 )
@@ -257,9 +258,11 @@ class Contact:
         t0 = time.perf_counter()
         k = self.pair_dofs.shape[0]
         ev = _Eval(q.copy(), np.empty(k), np.empty((k, 12)), np.empty((k, 12)))
-        e = contact_evaluate(q, q_prev, dt, self.pair_dofs, self.pair_d, self.pair_mu, self.settings.delta,
-                             self.settings.nu, self.k_c, residual, bool(want_jacobian), self._blocks, ev.delta,
-                             ev.fc, ev.ff, self.pair_eta)
+        # one kernel per distance: a run compiles only the one it uses (pair_eta > 0 iff smoothing > 0)
+        kernel = contact_evaluate_regularized if self.settings.parallel_smoothing > 0.0 else contact_evaluate_exact
+        e = kernel(q, q_prev, dt, self.pair_dofs, self.pair_d, self.pair_mu, self.settings.delta,
+                   self.settings.nu, self.k_c, residual, bool(want_jacobian), self._blocks, ev.delta,
+                   ev.fc, ev.ff, self.pair_eta)
         self._last = ev
         self._q_prev = q_prev
         self._dt = dt

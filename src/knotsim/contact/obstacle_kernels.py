@@ -49,7 +49,7 @@ def node_plane_distance(x, p, n, grad, hess):
     return (x[0] - p[0]) * n[0] + (x[1] - p[1]) * n[1] + (x[2] - p[2]) * n[2]
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def _radial(r, rn, grad, hess, axis, ax_len2):
     """``grad = r/|r|``, ``hess = (I - axis axisᵀ/ax_len2 - u uᵀ)/|r|`` (``ax_len2 = 0``: no axis term)."""
     if rn <= TINY_DISTANCE:

@@ -41,7 +41,7 @@ IMC_SHARPNESS = 15.0
 CUTOFF_ENERGY_JUMP_OVER_TOL2 = (math.log1p(math.exp(-IMC_SHARPNESS)) / IMC_SHARPNESS) ** 2
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def _softplus_parts(z):
     """``softplus(z)``, logistic ``σ(z)`` and ``σ(z)(1 − σ(z))`` without overflow."""
     ez = math.exp(-abs(z))  # in (0, 1]
@@ -104,6 +104,18 @@ def contact_pair_energy(p, d, tol, grad, hess, eta=0.0):
     the energy, gradient and Hessian are zero.
     """
     if eta > 0.0:
+        return pair_energy(p, d, tol, grad, hess, eta, True)
+    return pair_energy(p, d, tol, grad, hess, eta, False)
+
+
+@njit(inline="always", cache=True)
+def pair_energy(p, d, tol, grad, hess, eta, regularized):
+    """:func:`contact_pair_energy` with the distance chosen by ``regularized`` (``True``: the
+    regularized distance with ``eta > 0``; ``False``: the exact one, ``eta`` unused).
+
+    Inlined into its caller: called with a literal ``True`` or ``False``, numba compiles only that
+    branch (the loop over pairs of each distance is compiled when first used, not both)."""
+    if regularized:
         delta, bi, bj, case = regularized_distance(p, eta)
     else:
         delta, bi, bj, case = edge_edge_distance(p)
@@ -113,7 +125,7 @@ def contact_pair_energy(p, d, tol, grad, hess, eta=0.0):
             for l in range(12):
                 hess[k, l] = 0.0
         return 0.0, delta, bi, bj, case
-    if eta > 0.0:
+    if regularized:
         regularized_distance_derivatives(p, eta, grad, hess)
     else:
         edge_edge_distance_derivatives(p, grad, hess)

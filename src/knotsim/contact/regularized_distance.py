@@ -54,7 +54,7 @@ from knotsim.contact.distance import CASE_EE, CASE_EP_0, CASE_PE_0, MIN_LENGTH2,
 from knotsim.geometry.segments import clamp01, edge_vectors, load_edges
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def _objective(r, d1, d2, A, B, eta, bi, bj):
     q = v3.sub(v3.axpy(bi, d1, r), v3.scale(bj, d2))
     return v3.dot(q, q) + eta * (A * (bi - 0.5) ** 2 + B * (bj - 0.5) ** 2)
@@ -127,7 +127,7 @@ def regularized_distance(p, eta):
     return math.sqrt(max(best, 0.0)), bbi, bbj, case
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def _free_flags(case):
     """(beta_i free, beta_j free) for a case code."""
     if case == CASE_EE:
@@ -139,7 +139,7 @@ def _free_flags(case):
     return False, False
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def _edges_and_gap(p, bi, bj):
     """Edge vectors ``d1 = x1 − x0``, ``d2 = x3 − x2`` and ``q(β) = x0 + β_i d1 − x2 − β_j d2`` (m)."""
     x0, x1, x2, x3 = load_edges(p)
@@ -147,7 +147,7 @@ def _edges_and_gap(p, bi, bj):
     return d1, d2, v3.sub(v3.axpy(bi, d1, r), v3.scale(bj, d2))
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def _mixed_blocks(p, eta, bi, bj):
     """``∂²f/∂x_k∂β_i`` and ``∂²f/∂x_k∂β_j`` (k = 0..3) as two 4-tuples of 3-vectors (m), and the
     entries ``(f_ii, f_ij, f_jj)`` of ``f_ββ`` (m²)."""
@@ -178,7 +178,7 @@ def _mixed_blocks(p, eta, bi, bj):
     return fi, fj, 2.0 * A * (1.0 + eta), -2.0 * C, 2.0 * B * (1.0 + eta)
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def _inverse_2x2(hii, hij, hjj):
     """Entries ``(a, b, c)`` of ``[[hii, hij], [hij, hjj]]⁻¹ = [[a, b], [b, c]]`` (``f_ββ`` is
     positive definite for ``η > 0``)."""
@@ -186,7 +186,7 @@ def _inverse_2x2(hii, hij, hjj):
     return hjj / det, -hij / det, hii / det
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def _beta_blocks(p, eta, bi, bj, case):
     """``∂β_i/∂x_k`` and ``∂β_j/∂x_k`` (k = 0..3) as two 4-tuples of 3-vectors (1/m)."""
     z = (0.0, 0.0, 0.0)

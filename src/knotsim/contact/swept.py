@@ -33,6 +33,7 @@ import math
 import numpy as np
 from numba import njit
 
+from knotsim._util.sorting import argsort_stable
 from knotsim.contact.broadphase import _excluded
 from knotsim.contact.distance import edge_edge_distance
 
@@ -86,7 +87,7 @@ def swept_box_pairs(q0, q1, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
             ax = c
     o1 = (ax + 1) % 3
     o2 = (ax + 2) % 3
-    order = np.argsort(lo[:, ax])
+    order = argsort_stable(lo[:, ax])
     cap = 4 * n + 16
     pairs = np.empty((cap, 2), np.int64)
     k = 0
@@ -105,7 +106,9 @@ def swept_box_pairs(q0, q1, edge_dofs, edge_rod, edge_local, rod_n_edges, rod_cl
                 continue
             if k == cap:
                 grown = np.empty((2 * cap, 2), np.int64)
-                grown[:cap] = pairs
+                for r in range(cap):  # (a slice assignment costs seconds of first-run compile time)
+                    grown[r, 0] = pairs[r, 0]
+                    grown[r, 1] = pairs[r, 1]
                 pairs = grown
                 cap *= 2
             pairs[k, 0] = min(a, b)

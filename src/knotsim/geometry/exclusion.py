@@ -55,7 +55,7 @@ def min_index_gap(edge_length: float, contact_distance: float) -> int:
     return max(MIN_INDEX_GAP, need)
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def index_distance(i, j, n, closed):
     """Index distance of edges ``i`` and ``j`` of one rod with ``n`` edges (cyclic when ``closed``)."""
     di = abs(i - j)

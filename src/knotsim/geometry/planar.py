@@ -22,6 +22,8 @@ import math
 import numpy as np
 from numba import njit
 
+from knotsim._util.sorting import argsort_stable
+
 __all__ = ["DEGENERACY", "segment_crossings"]
 
 #: Degeneracy flags of :func:`segment_crossings` (``half_open=False``).
@@ -57,7 +59,7 @@ def _crossings_kernel(x, y, h, seg0, seg1, eps_parallel, eps_param, eps_sin, eps
         ymax[k] = max(y[i], y[j]) + pad
         if not half_open and math.hypot(x[j] - x[i], y[j] - y[i]) <= eps_len:
             flag = 5
-    order = np.argsort(xmin)
+    order = argsort_stable(xmin)
     seg_a = np.empty(cap, dtype=np.int64)
     seg_b = np.empty(cap, dtype=np.int64)
     s_a = np.empty(cap)

@@ -47,7 +47,7 @@ __all__ = [
 PARALLEL_TOL = 1e-14
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def clamp01(t):
     """``t`` clamped to ``[0, 1]`` (exactly 0.0 or 1.0 at a bound)."""
     if t <= 0.0:
@@ -57,13 +57,13 @@ def clamp01(t):
     return t
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def load_edges(p):
     """The four points ``x0, x1, x2, x3`` (3-tuples) of a flat ``(12,)`` coordinate array."""
     return v3.load(p, 0), v3.load(p, 3), v3.load(p, 6), v3.load(p, 9)
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def edge_vectors(p0, p1, q0, q1):
     """``d1 = p1 - p0``, ``d2 = q1 - q0``, ``r = p0 - q0`` (3-tuples) and ``|d1|^2``, ``|d2|^2``."""
     d1 = v3.sub(p1, p0)
@@ -72,7 +72,7 @@ def edge_vectors(p0, p1, q0, q1):
     return d1, d2, r, v3.dot(d1, d1), v3.dot(d2, d2)
 
 
-@njit(inline="always", cache=True)
+@njit(cache=True)
 def segment_closest(p0, p1, q0, q1):
     """Distance and closest-point ratios of segments ``[p0, p1]`` and ``[q0, q1]``.
 

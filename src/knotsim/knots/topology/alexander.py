@@ -134,7 +134,9 @@ def _det_mod_batch(A0, p):
     out = np.empty(B, dtype=np.int64)
     A = np.empty((m, m), dtype=np.int64)
     for b in range(B):
-        A[:, :] = A0[b]
+        for r in range(m):  # (a slice assignment costs seconds of first-run compile time)
+            for c in range(m):
+                A[r, c] = A0[b, r, c]
         det = 1
         for k in range(m):
             piv = -1
