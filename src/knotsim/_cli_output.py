@@ -98,7 +98,7 @@ def announce_compile(contact: bool = True, topology: bool = True) -> None:
     if kernels_cached(contact=contact, topology=topology):
         return
     parallel = spare_cores() >= 1.0
-    click.echo("note: compiling the numerical kernels for the first time: about 80-100 s of CPU time"
+    click.echo("note: compiling the numerical kernels for the first time: about 45 s of CPU time"
                + (", in 2 processes" if parallel else " (the machine is busy: in this process, as the run goes)")
                + "; cached for later runs; `knotsim warmup` does this ahead ...", err=True)
     if parallel:

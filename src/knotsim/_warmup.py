@@ -64,12 +64,33 @@ def kernels_cached(contact: bool = True, topology: bool = True) -> bool:
     return not uncached_kernels(groups)
 
 
-def spare_cores() -> float:
-    """CPUs not busy over the last minute (``os.cpu_count()`` minus the 1-min load average, >= 0):
-    a second compiling process only pays off when this is at least 1 (on a busy machine it adds
-    CPU time, about 25 %, without shortening the wall time)."""
+def _idle_fraction(window: float = 0.25) -> float | None:
+    """Fraction of the machine's CPU time spent idle over the next ``window`` seconds, from the
+    kernel's counters (``/proc/stat``; ``None`` where there is none)."""
+    def sample():
+        with open("/proc/stat") as f:
+            fields = [float(v) for v in f.readline().split()[1:]]
+        return fields[3] + fields[4], sum(fields)  # idle + iowait, total
     try:
-        return max(0.0, float(os.cpu_count() or 1) - os.getloadavg()[0])
+        idle0, total0 = sample()
+        time.sleep(window)
+        idle1, total1 = sample()
+    except (OSError, ValueError, IndexError):
+        return None
+    return (idle1 - idle0) / (total1 - total0) if total1 > total0 else None
+
+
+def spare_cores() -> float:
+    """CPUs not busy now: ``os.cpu_count()`` times the idle fraction over a quarter of a second
+    (or, where the kernel's counters cannot be read, minus the 1-min load average, which lags a
+    machine that has just become idle). A second compiling process only pays off when this is at
+    least 1 (on a busy machine it adds CPU time, about 25 %, without shortening the wall time)."""
+    n = float(os.cpu_count() or 1)
+    idle = _idle_fraction()
+    if idle is not None:
+        return max(0.0, n * idle)
+    try:
+        return max(0.0, n - os.getloadavg()[0])
     except (OSError, AttributeError):  # no load average on this platform
         return 0.0
 

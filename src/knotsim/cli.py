@@ -224,7 +224,7 @@ def validate(cases: tuple[str, ...], quick: bool, as_json: bool, json_only: bool
 def warmup(serial: bool | None):
     """Compile every numerical kernel now (numba, cached for later runs) and report the time.
 
-    The first run of a command would otherwise start with this (80-100 s of CPU time)."""
+    The first run of a command would otherwise start with this (about 45 s of CPU time)."""
     from knotsim._warmup import kernels_cached, spare_cores, warm_up
 
     if serial is None:
