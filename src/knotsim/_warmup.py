@@ -3,9 +3,10 @@
 The kernels are numba ``@njit(cache=True)`` functions: each compiles on its first call and is
 stored in numba's cache (``__pycache__`` next to the source, or ``NUMBA_CACHE_DIR``); later
 processes load it in milliseconds. A cold start of ``knotsim pull overhand_n1 --quick`` spends
-nearly all its time compiling (one specialisation per kernel; measured in ``docs/performance.md``):
-the contact kernels (``contact_evaluate`` with the pair energy and friction, the broad phase)
-about half, the elastic energies, the sparse LU and the knot-diagram kernels the rest.
+most of its time compiling, about 45 s of CPU (one specialisation per kernel;
+``python benchmarks/bench_cold_start.py --split`` lists them): the broad phase and the contact
+loop (``contact_evaluate_regularized``: pair energy and friction) about 6 s each, the sparse LU
+about 8 s, the elastic energies about 7 s, the rest in many small kernels.
 
 :func:`kernels_cached` tells, from numba's cache index files of a few kernels that every run of
 that kind compiles, whether a run would start by compiling. :func:`warm_up` compiles the kernels
