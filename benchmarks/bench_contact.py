@@ -6,7 +6,8 @@ overhand knot (``knotsim.knots.library.get_knot('overhand_n1')``; a generated lo
 open curve if the library is missing), the two end nodes at each end clamped and pulled apart
 along the end-to-end axis at 6 mm/s each; mu = 0.3, dt = 2.5 ms, default contact settings.
 
-Prints ms per Newton iteration, iterations per step, ms per step, contacts per step and the time
+Prints the end-to-end distance (m) and pull force (N, mean of the two grips) at the end, ms per Newton
+iteration, iterations per step, ms per step, contacts per step and the time
 split (broad phase, narrow phase = contact evaluate, elastic forces, assembly, linear solve,
 Python/other), then one JSON line ``{"results": [...]}``. The run is deterministic, so with
 ``--repeat R`` it is replayed R times and the figures of the fastest run are printed, plus the mean
@@ -85,6 +86,7 @@ def run(n_nodes: int, steps: int, warmup: int, dt: float = 2.5e-3, mu: float = 0
     for k in contact.timers:
         contact.timers[k] = 0.0
     rows0 = len(sim.rows)
+    patterns0 = st._pattern_id
     step_times = np.empty(steps)
     t0 = time.perf_counter()
     for k in range(steps):
@@ -105,12 +107,15 @@ def run(n_nodes: int, steps: int, warmup: int, dt: float = 2.5e-3, mu: float = 0
     }
     split["python_other"] = wall - sum(split.values())
     x = sim.model.node_positions(sim.state.q)
+    last = sim.log().iloc[-1]
     return {"n_nodes": n_nodes, "knot": source, "steps": steps, "sim_time": float(sim.state.time),
             "ms_per_iteration": 1e3 * wall / max(iters, 1), "iterations_per_step": iters / steps,
             "ms_per_step": 1e3 * wall / steps, "contacts": float(log["n_contacts"].mean()),
             "candidate_pairs": int(contact.pairs.shape[0]), "failed_attempts": int(sim.n_failures),
             "max_penetration_ratio": float(log["max_penetration_ratio"].max()),
-            "end_to_end": float(np.linalg.norm(x[-1] - x[0])), "solver": st.last_solver,
+            "end_to_end": float(np.linalg.norm(x[-1] - x[0])),
+            "force": 0.5 * float(last["left_force"] + last["right_force"]), "newton_iterations": iters,
+            "pattern_changes": int(st._pattern_id - patterns0), "solver": st.last_solver,
             "share": {k: v / wall for k, v in split.items()}, "step_times": step_times}
 
 
@@ -130,7 +135,7 @@ def main() -> None:
     r["ms_per_step_best_of_each_step"] = 1e3 * float(best.mean())
     s = r["share"]
     print(f"knot: {r['knot']}, N = {r['n_nodes']}, {r['steps']} steps to t = {r['sim_time']:.3f} s, "
-          f"end-to-end {r['end_to_end']:.4f} m, solver {r['solver']}, failed attempts {r['failed_attempts']}")
+          f"end-to-end {r['end_to_end']:.4f} m, pull force {r['force']:.6g} N, solver {r['solver']}, failed attempts {r['failed_attempts']}")
     print(f"ms/iteration {r['ms_per_iteration']:.3f}   iterations/step {r['iterations_per_step']:.2f}   "
           f"ms/step {r['ms_per_step']:.3f}   contacts {r['contacts']:.1f} (candidates {r['candidate_pairs']})   "
           f"max penetration {r['max_penetration_ratio']:.2e} h")
