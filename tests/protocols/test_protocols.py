@@ -69,7 +69,9 @@ def test_two_rope_bend_quick(tmp_path, mode):
     s = run_protocol("two-rope-bend", "reef_bend", out_dir=out, quick=True,
                      overrides={"mode": mode, "duration": 0.75, "n_nodes": 81})
     _check_summary(out, s)
-    assert s["topology"]["start"]["knot_type"] == "reef"
+    # the ropes each closed on themselves (the outcome's check), and the bend named by its closure
+    assert s["topology"]["start"]["component_types"] == ["unknot", "unknot"]
+    assert s["metrics"]["bend_closure"] == "reef"
     m = s["metrics"]
     assert {"F_norm_mean", "F_norm_peak", "tail_a_draw_in", "tail_b_draw_in", "pull_draw_in", "slip_onset"} <= set(m)
     log = pd.read_parquet(out / "log.parquet")

@@ -273,6 +273,24 @@ def link_key(topo: dict) -> str:
     return f"{' + '.join(types)}; lk {lk}" + (f"; V = {jones}" if jones is not None else "")
 
 
+def bend_names(ctx: RunContext) -> dict:
+    """The starting bend named by its whole-bend closure (:func:`knotsim.knots.topology.analyze_bend`:
+    standing ends joined above, tails below): ``bend_closure`` (its knot type, e.g. ``"reef"``) and
+    ``bend_name`` (from :data:`~knotsim.knots.topology.BEND_TABLE`, ``None`` when not there). Both
+    ``None`` when the check fails. Informational: the outcome does not use this closure."""
+    from knotsim.knots.topology import analyze_bend
+
+    d = getattr(ctx, "data", {})
+    if "held" not in d or getattr(ctx, "geometry", None) is None:
+        return {}
+    try:
+        res = analyze_bend([np.asarray(x, float) for x in ctx.geometry.ropes],
+                           ((d["held"].rope, d["held_end"]), (d["pulled"].rope, d["pulled_end"])))
+    except Exception:  # recorded as missing, never raised: a naming aid only
+        return {"bend_closure": None, "bend_name": None}
+    return {"bend_closure": res.knot_type, "bend_name": res.bend}
+
+
 def pre_tighten_time(params) -> float:
     """Duration (s) of the cinching stage, ``pre_tighten / pre_tighten_speed`` (0 when off; see
     :func:`~knotsim.protocols.base.stage_duration` for the errors)."""
@@ -288,8 +306,8 @@ class TwoRopeBend(LoadingProtocol):
         "mu": 0.3,
         "dt": 2e-3,  # s; no published value
         "mode": "displacement",
-        "held_end": None,      # "ROPE:NODE" of the held end (None: the knot's hint, or rope 0's first node)
-        "pulled_end": None,    # "ROPE:NODE" of the pulled end (None: the knot's hint, or rope 1's first node)
+        "held_end": "",        # "ROPE:NODE" of the held end ("": the knot's hint)
+        "pulled_end": "",      # "ROPE:NODE" of the pulled end ("": the knot's hint)
         "pull_speed": 0.01,    # m/s (displacement mode)
         "pull_length": 0.4,    # m pulled in displacement mode when no duration is given
         "pre_tighten": 0.0,    # m each of the four ends moves outwards first (0: no cinching stage)
@@ -309,8 +327,9 @@ class TwoRopeBend(LoadingProtocol):
             raise ConfigError("knot", f"two-rope-bend needs a knot of two ropes, {geo.name!r} has {len(geo.ropes)}")
         hint_held, hint_pulled = default_ends(geo)
         he, pe = ctx.params["held_end"], ctx.params["pulled_end"]
-        held_list = (parse_end(he, geo, "held_end"),) if he is not None else hint_held
-        pulled_list = (parse_end(pe, geo, "pulled_end"),) if pe is not None else hint_pulled
+        # a text default (""), not None: a None default is resolved as a number (base.build_protocol_run)
+        held_list = (parse_end(he, geo, "held_end"),) if he else hint_held
+        pulled_list = (parse_end(pe, geo, "pulled_end"),) if pe else hint_pulled
         if not held_list or not pulled_list:
             raise ConfigError("knot", f"knot {geo.name!r} has no [loading] held/pulled hints; give held_end and "
                                       "pulled_end (ROPE:NODE)")
@@ -431,6 +450,7 @@ class TwoRopeBend(LoadingProtocol):
             "tail_b_draw_in": tail_draw_in(log, "tail_b"),
             "pull_draw_in": tail_draw_in(log, "u_pull", kind="increase"),
         }
+        out.update(bend_names(ctx))
         if "rope_gap" in log.columns:
             gap = float(log["rope_gap"].iloc[-1])
             out["rope_gap_final"] = gap
