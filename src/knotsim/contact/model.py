@@ -70,6 +70,9 @@ REBUILD_FRACTION = 0.5
 #: Centre lines of two edges closer than this fraction of the smaller radius have met: a
 #: pass-through (:mod:`knotsim.contact.swept`).
 CROSSING_TOL = 0.01
+#: A candidate pair gets a Jacobian block once its gap ``Δ − d`` falls below ``delta`` plus this
+#: fraction of ``margin`` at a Jacobian evaluation (:meth:`Contact.block_dofs`).
+BLOCK_BAND_FRACTION = 0.5
 
 __all__ = ["Contact", "ContactInteraction", "ContactOptions", "ContactSettings", "StiffnessMode", "contact_from_config"]
 
@@ -132,6 +135,9 @@ class Contact:
         self.pair_mu = np.zeros(0)
         self.pair_hmin = np.zeros(0)
         self._blocks = np.zeros((0, 12, 12))
+        self._block_mask = np.zeros(0, bool)
+        self._block_idx = np.zeros(0, np.int64)
+        self._block_pair_dofs = np.zeros((0, 12), np.int64)
         self._pair_keys = np.zeros(0, np.int64)
         self._q_build = None
         self._node_xyz = m.node_dof[:, None] + np.arange(3)[None, :]
@@ -243,15 +249,28 @@ class Contact:
         self.pair_mu = np.ascontiguousarray(self._mu_table[m.edge_rod[pairs[:, 0]], m.edge_rod[pairs[:, 1]]])
         self._pair_keys = pairs[:, 0] * m.n_edges + pairs[:, 1]
         self._blocks = np.zeros((pairs.shape[0], 12, 12))
+        self._set_blocks(np.zeros(pairs.shape[0], bool))
+
+    def _set_blocks(self, mask) -> None:
+        """Give Jacobian blocks to the candidate pairs of ``mask`` ``(k,)`` bool (a new pattern)."""
+        self._block_mask = mask
+        self._block_idx = np.flatnonzero(mask)
+        self._block_pair_dofs = np.ascontiguousarray(self.pair_dofs[self._block_idx])
+        self.pattern_version += 1
 
     def block_dofs(self) -> np.ndarray:
-        """``(k, 12)`` unknowns of the Jacobian block of every candidate pair.
+        """``(b, 12)`` unknowns of the Jacobian blocks: the candidate pairs that have been within
+        ``d + delta + BLOCK_BAND_FRACTION × margin`` at a Jacobian evaluation since the list was built.
 
-        Every candidate pair gets a block, so the matrix pattern changes only when the candidate list
-        is rebuilt. Giving blocks only to pairs near contact was measured too: the pattern then
-        changes about 40 % more often, and the extra symbolic analyses cost more than the fill they
-        save (4.07 against 3.86 ms per step on ``benchmarks/bench_contact.py``)."""
-        return self.pair_dofs
+        The block of a pair is exactly zero while its gap ``Δ − d`` is at least ``delta`` (no energy,
+        no friction), so the Jacobian is the same as with a block for every candidate pair: whenever
+        :meth:`evaluate` finds a pair in range without a block it gives blocks to every pair within
+        the band and changes the pattern before the matrix is assembled. Pairs keep their block until
+        the list is rebuilt, so the pattern changes only at rebuilds and when a pair comes into the
+        band. The Verlet list stays the broad phase (swept checks, stiffness, rebuilds); only the
+        matrix and its factorisation shrink, from the candidates (which grow like the square of the
+        nodes per metre at a fixed margin) to the contacts (see docs/performance.md)."""
+        return self._block_pair_dofs
 
     def evaluate(self, q, q_prev, dt, residual, want_jacobian):
         """Add ``k_c ∇E − F_friction`` (N) to ``residual``; return ``(k_c ΣE (J), blocks (k,12,12) | None)``."""
@@ -266,8 +285,15 @@ class Contact:
         self._last = ev
         self._q_prev = q_prev
         self._dt = dt
+        blocks = None
+        if want_jacobian:
+            live = ev.delta < self.pair_d + self.settings.delta
+            if np.any(live & ~self._block_mask):
+                band = self.settings.delta + BLOCK_BAND_FRACTION * self.settings.margin
+                self._set_blocks(self._block_mask | live | (ev.delta < self.pair_d + band))
+            blocks = self._blocks[self._block_idx]
         self.timers["narrow_phase"] += time.perf_counter() - t0
-        return float(e), (self._blocks if want_jacobian else None)
+        return float(e), blocks
 
     def _evaluated_at(self, q) -> _Eval:
         ev = self._last
@@ -381,7 +407,7 @@ class Contact:
         meta = {"k_c": float(self.k_c), "fmax_accepted": float(self._fmax_accepted), "dt_ref": float(self._dt_ref),
                 "n_rebuilds": int(self.n_rebuilds), "pattern_version": int(self.pattern_version),
                 "has_build": self._q_build is not None}
-        arrays = {"pairs": self.pairs}
+        arrays = {"pairs": self.pairs, "block_mask": self._block_mask}
         if self._q_build is not None:
             arrays["q_build"] = self._q_build
         return meta, arrays
@@ -395,6 +421,8 @@ class Contact:
         self._dt_ref = float(meta["dt_ref"])
         self.n_rebuilds = int(meta["n_rebuilds"])
         self._set_pairs(np.ascontiguousarray(arrays["pairs"], dtype=np.int64).reshape(-1, 2))
+        if "block_mask" in arrays:  # else (older checkpoints) blocks are given at the first evaluation
+            self._set_blocks(np.asarray(arrays["block_mask"], bool).reshape(-1))
         self.pattern_version = int(meta["pattern_version"]) + 1
         self._q_build = np.array(arrays["q_build"], float) if meta["has_build"] else None
 
