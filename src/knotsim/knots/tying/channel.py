@@ -94,7 +94,7 @@ def _bc(name, nodes, times, disp, *, start=None, stop=None, twist=None) -> dict:
 
 
 def channel_sequence(kind: str, *, length=1.3, n_nodes=209, radius=2.5e-3, margin=0.6, guide_every=4,
-                     feed_speed=0.25, t_ramp=0.5, tol=1e-4, settle=0.3, pull=0.3, pull_speed=0.03,
+                     feed_speed=0.25, t_ramp=0.5, tol=1e-4, settle=0.3, pull=0.22, pull_speed=0.03,
                      hold_nodes=3, youngs=0.5e6, density=1000.0, damping=0.05, mu=0.3, dt=2e-3,
                      out_dt=0.05):
     """Full run configuration (dict) tying a single-rod ``kind`` = ``"reef"`` or ``"granny"`` in the
