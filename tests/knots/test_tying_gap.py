@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from tests.knots.brute import count_crossings
 
 from knotsim.knots.library import get_knot
 from knotsim.knots.tying import half_knot_gap
-from tests.knots.brute import count_crossings
 
 
 def _arc(x):
