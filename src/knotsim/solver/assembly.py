@@ -112,18 +112,9 @@ def csc_fill_elastic(data, diag_slots, diag, stretch_slots, stretch_blocks, bend
     :func:`csc_add_diagonal` followed by :func:`csc_add_blocks` twice)."""
     for p in range(data.shape[0]):
         data[p] = 0.0
-    for i in range(diag.shape[0]):
-        data[diag_slots[i]] += diag[i]
-    nb, k, _ = stretch_blocks.shape
-    for b in range(nb):
-        for i in range(k):
-            for j in range(k):
-                data[stretch_slots[b, i, j]] += stretch_blocks[b, i, j]
-    nb, k, _ = bend_blocks.shape
-    for b in range(nb):
-        for i in range(k):
-            for j in range(k):
-                data[bend_slots[b, i, j]] += bend_blocks[b, i, j]
+    csc_add_diagonal(data, diag_slots, diag)
+    csc_add_blocks(data, stretch_slots, stretch_blocks)
+    csc_add_blocks(data, bend_slots, bend_blocks)
 
 
 @njit(cache=True)
