@@ -11,7 +11,10 @@
   in ``log.jsonl`` (:func:`read_log` reads either);
 - ``run.json``: configuration (when known), knotsim version, git commit of the knotsim source
   (when it is a git checkout), wall time, outcome: written at the start with outcome
-  ``"running"``, updated at every log flush (steps, simulated time) and at the end;
+  ``"running"``, updated at a log flush (steps, simulated time) at most every
+  ``LOG_FLUSH_SECONDS`` s and never sooner than 20 times its last write took (a tying sequence's
+  260 kB of grip waypoints took 0.2 s to write: rewritten every 16 steps it cost more than the
+  steps), and at the end;
 - ``run.toml``: the complete run description (when known), which ``knotsim run`` replays; written
   at the start;
 - ``checkpoint.npz``: everything that decides the next step, every ``CHECKPOINT_SECONDS`` s of wall
@@ -102,7 +105,10 @@ class RunOutput:
         if self.config is not None:
             self._write_run_file()
         self._log_fh = open(self.dir / LOG_SIDE_FILE, "w", encoding="utf-8")
+        t0 = _time.perf_counter()
         write_json(self.dir / "run.json", self._info("running"))
+        self._info_written = _time.perf_counter()  # run.json: when last written and what it cost (s)
+        self._info_cost = self._info_written - t0
 
     def _info(self, outcome: str) -> dict:
         rows = self.sim.rows[self._rows_start:] if self._rows_start else self.sim.rows
@@ -136,7 +142,10 @@ class RunOutput:
         self._log_fh.flush()
         self._flushed = len(rows)
         self._last_flush = now
-        write_json(self.dir / "run.json", self._info("running"))
+        if force or now - self._info_written >= max(LOG_FLUSH_SECONDS, 20.0 * self._info_cost):
+            write_json(self.dir / "run.json", self._info("running"))
+            self._info_written = _time.perf_counter()
+            self._info_cost = self._info_written - now
 
     def frame(self, sim) -> None:
         st = sim.state
