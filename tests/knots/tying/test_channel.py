@@ -1,9 +1,9 @@
 """The studied-form reef and granny fed through a knotting channel (knotsim.knots.tying.channel): the
-channels and the grip paths. The channel sequences are not shipped yet (docs/knots.md: a full tie has not
-finished in a test)."""
+channels, the grip paths, the shipped files, and (slow) the full ties from the straight rod."""
 
 from __future__ import annotations
 
+import json
 import os
 
 import numpy as np
@@ -16,6 +16,7 @@ from knotsim.knots import tying  # noqa: E402
 from knotsim.knots.library import load_knot_spec  # noqa: E402
 from knotsim.knots.topology import analyze  # noqa: E402
 from knotsim.knots.tying.channel import SECOND_HALF_KNOT_PASSES, channel_curve, channel_sequence  # noqa: E402
+from knotsim.knots.tying.run import GAP_LIMIT_DIAMETERS  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -79,3 +80,25 @@ def test_grips_slide_the_rope_along_the_channel(kind, curves):
             r = np.linalg.norm(g[b] - g[a]) / ((b - a) * ds)
             assert lo - 0.02 < r <= 1.0 + 2e-4, (t, a, b, r)
     assert info["hold_node"] == hold and info["held_nodes"] == [hold - 1, hold, hold + 1]
+
+
+@pytest.mark.parametrize("kind", ["reef", "granny"])
+def test_shipped_file_is_the_generator_output(kind):
+    cfg, _ = channel_sequence(kind)
+    shipped = tying.load_tying_config(kind)
+    assert shipped == cfg
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["reef", "granny"])
+def test_tie_studied_form_from_straight_rod(kind, tmp_path):
+    """Full ties (N = 209, a few minutes each): the right connected sum, nested, the second
+    half-knot within 10 rope diameters of the first."""
+    res = tying.tie_from_straight(kind, tmp_path / "run", overrides={"run": {"output_interval": 1.0}})
+    assert res.ok, res.knot_type
+    assert res.topology.rolfsen == {"reef": "3_1#3_1*", "granny": "3_1#3_1"}[kind]
+    g = res.half_knot
+    assert g.form == "nested" and g.diameters <= GAP_LIMIT_DIAMETERS
+    assert res.max_penetration_ratio < 0.2
+    s = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert s["half_knot_gap_ok"] is True and s["hold_node"] == g.hold_node

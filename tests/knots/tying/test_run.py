@@ -73,19 +73,3 @@ def test_overhand_from_straight_rod_is_a_trefoil(tmp_path):
     x = res.positions
     assert np.linalg.norm(x[-1] - x[0]) > 0.6
     assert (tmp_path / "run" / "trajectory.h5").is_file()
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("name", ["reef", "granny"])
-def test_double_knots_from_straight_rod(name, tmp_path):
-    """Full runs (N = 209, 18.9 s simulated, 50-80 s wall each): reef -> 3_1#3_1*, granny -> 3_1#3_1."""
-    res = tying.tie_from_straight(name, tmp_path / "run", overrides={"run": {"output_interval": 0.5}})
-    assert res.ok, res.knot_type
-    assert res.knot_type in tying.EXPECTED[name]
-    assert res.topology.rolfsen == {"reef": "3_1#3_1*", "granny": "3_1#3_1"}[name]
-    assert res.topology.n_crossings_reduced == 6
-    assert res.max_penetration_ratio < 0.2
-    x = res.positions
-    assert np.linalg.norm(x[-1] - x[0]) > 1.05  # both knots pulled snug (L = 1.3 m)
-    edges = np.linalg.norm(np.diff(x, axis=0), axis=1)
-    assert edges.max() < 1.05 * 1.3 / 208  # and the rod not stretched

@@ -66,29 +66,6 @@ def test_write_sequence_header_and_exact_values(tmp_path):
     _assert_identical(cfg, loads_toml(text))
 
 
-@pytest.mark.parametrize("kind", ["reef", "granny"])
-def test_same_end_stage1_matches_shipped(kind):
-    """The first stage does not depend on the state: generator and shipped file agree on it."""
-    cfg, info = ts.same_end_sequence(kind, state=_fake_stage1_state())
-    shipped = tying.load_tying_config(kind)
-    assert cfg["rods"] == shipped["rods"] and cfg["contact"] == shipped["contact"]
-    assert cfg["run"]["duration"] == shipped["run"]["duration"]
-    assert [b["name"] for b in cfg["bc"]] == [b["name"] for b in shipped["bc"]]
-    n1 = 0
-    for a, b in zip(cfg["bc"], shipped["bc"], strict=True):
-        if a["name"].endswith("2"):  # stage 2: designed on the actual stage-1 state
-            continue
-        n1 += 1
-        assert a["nodes"] == b["nodes"] and a.get("stop") == b.get("stop")
-        np.testing.assert_allclose(a["waypoints"]["times"], b["waypoints"]["times"], atol=1e-9)
-        if a["name"] != "end_a":  # end A's last point depends on the stage-1 rope direction
-            np.testing.assert_allclose(a["waypoints"]["points"], b["waypoints"]["points"], atol=1e-9)
-    assert n1 == 8
-    assert info["second_start_node"] == 137 + 5
-    header = ts.same_end_header(kind, info)
-    assert header.startswith(f"Single-rod {kind} ") and f"loop from node {info['second_start_node']}" in header
-
-
 def test_same_end_reef_and_granny_second_knots_are_mirror_images():
     x = _fake_stage1_state()
     reef, _ = ts.same_end_sequence("reef", state=x)
