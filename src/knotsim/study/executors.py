@@ -92,12 +92,14 @@ def run_executor(config: dict, out_dir: Path, base_dir: Path) -> dict:
     return out
 
 
-_PROTOCOL_KEYS = ("protocol", "knot", "overrides", "quick")
+_PROTOCOL_KEYS = ("protocol", "knot", "geometry", "overrides", "quick")
 
 
 def protocol_executor(config: dict, out_dir: Path, base_dir: Path) -> dict:
-    """Run a protocol case ``{protocol, knot, overrides, quick}`` with
+    """Run a protocol case ``{protocol, knot | geometry, overrides, quick}`` with
     :func:`knotsim.protocols.run_protocol` (which writes its own ``summary.json`` into ``out_dir``).
+    ``geometry`` is a node file or an earlier run's directory (e.g. a tied knot), relative to the
+    study's folder ``base_dir`` unless absolute.
 
     Metrics: the entries of the summary's ``metrics`` under their own names (e.g. ``F_norm_mean``,
     dimensionless), then its other scalar entries (``outcome`` renamed ``protocol_outcome``,
@@ -122,6 +124,13 @@ def protocol_executor(config: dict, out_dir: Path, base_dir: Path) -> dict:
     kwargs = {"out_dir": out_dir, "overrides": dict(overrides)}
     if "knot" in config:
         kwargs["knot"] = config["knot"]
+    if "geometry" in config:
+        if "knot" in config:
+            raise ConfigError("geometry", "a protocol case takes a knot or a geometry, not both")
+        geo = config["geometry"]
+        if not isinstance(geo, str) or not geo:
+            raise ConfigError("geometry", f"expected the path of a node file or run directory, got {geo!r}")
+        kwargs["geometry"] = str(Path(geo) if Path(geo).is_absolute() else Path(base_dir) / geo)
     if config.get("quick"):
         kwargs["quick"] = True
     summary = run_protocol(name, **kwargs)

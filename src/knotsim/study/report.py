@@ -169,16 +169,18 @@ def _is_numeric_values(values) -> bool:
 # ------------------------------------------------------------------------------------------ MAE259B
 def _find_knot_mu(df, params: list[str]) -> tuple[str | None, str | None]:
     """The knot and friction axes of a study of the MAE259B shape: single-rod reef and granny
-    (knots of kind ``single_rod_bend`` when the table says, so that two-rope reef and granny
-    *bends* are not compared with the single-rod published values) against ``mu``."""
+    (knots of kind ``single_rod_bend``, or tied by earlier runs, when the table says, so that
+    two-rope reef and granny *bends* are not compared with the single-rod published values) against
+    ``mu``; the knot axis is ``knot`` or ``geometry`` (tie directories named for their knot)."""
     knot = mu = None
     if "knot_kind" in df.columns:
         kinds = {str(v) for v in df["knot_kind"].dropna().unique()}
-        if kinds and kinds != {"single_rod_bend"}:
+        # "run": the knots were tied by an earlier run (a study's ``geometry`` axis of tie directories)
+        if kinds and not kinds <= {"single_rod_bend", "run"}:
             return None, None
     for p in params:
         leaf = p.rsplit(".", 1)[-1]
-        if leaf == "knot" or p == "knot":
+        if leaf in ("knot", "geometry"):
             vals = [str(v).lower() for v in df[p].dropna().unique()]
             if any("granny" in v for v in vals) and any("reef" in v for v in vals):
                 knot = p
