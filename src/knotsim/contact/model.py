@@ -118,7 +118,8 @@ class Contact:
         if s.stiffness is not None:
             floor = max(floor, s.stiffness) if s.stiffness_mode == "adaptive" else s.stiffness
         self.k_floor = floor
-        self.k_c = s.stiffness if s.stiffness_mode == "constant" else floor
+        self.k_c = (s.stiffness if s.stiffness_mode == "constant"
+                    else max(floor, s.initial_stiffness) if s.initial_stiffness is not None else floor)
         self._fmax_accepted = 0.0
         self._fmax_pending = 0.0
         self.pairs = np.zeros((0, 2), np.int64)

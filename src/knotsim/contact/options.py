@@ -43,6 +43,9 @@ class ContactOptions:
       an optional lower bound / starting value;
     - ``stiffness_scaler``: adaptive ``k_c = scaler × F_max / h_min`` (default 500);
     - ``stiffness_floor``: smallest adaptive k_c (N/m); default from the model (see module doc);
+    - ``initial_stiffness``: adaptive k_c at the start (N/m, not below the floor); default the floor.
+      A run that continues a pressed knot (``knotsim pull --geometry RUN_DIR``) starts from that
+      run's k_c, so that its contacts carry the same forces at the start;
     - ``margin``: broad-phase cut-off margin (m), default 2e-3;
     - ``penetration_limit``: deepest accepted penetration as a fraction of the smaller radius of the
       pair (default 0.2); a deeper step is retried smaller;
@@ -64,6 +67,7 @@ class ContactOptions:
     stiffness: float | None = None
     stiffness_scaler: float = 500.0
     stiffness_floor: float | None = None
+    initial_stiffness: float | None = None
     margin: float = 2e-3
     penetration_limit: float = 0.2
     self_contact: bool = True
@@ -92,6 +96,8 @@ class ContactOptions:
         self.stiffness_scaler = _positive("stiffness_scaler", self.stiffness_scaler)
         if self.stiffness_floor is not None:
             self.stiffness_floor = _positive("stiffness_floor", self.stiffness_floor)
+        if self.initial_stiffness is not None:
+            self.initial_stiffness = _positive("initial_stiffness", self.initial_stiffness)
         self.margin = _positive("margin", self.margin, allow_zero=True)
         self.penetration_limit = _positive("penetration_limit", self.penetration_limit)
         self.parallel_smoothing = _positive("parallel_smoothing", self.parallel_smoothing, allow_zero=True)

@@ -298,6 +298,10 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
         raise ConfigError("duration", f"must be a positive time in s, got {duration!r}")
     p.values["duration"] = float(duration)
     contact = {"mu": p["mu"], **p.contact}
+    if geo.contact_stiffness is not None and "initial_stiffness" not in contact:
+        # continuing a run: its pressed contacts keep their forces (from the floor stiffness they
+        # would give way at once; a tied reef pulled at mu = 0.3 failed in its first step)
+        contact["initial_stiffness"] = geo.contact_stiffness
     solver = {"dt": float(p["dt"]), **p.solver}
     data = {
         "description": f"{proto.name} on {geo.name}",

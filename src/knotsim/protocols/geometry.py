@@ -9,6 +9,7 @@ run also brings its velocities and material frames, so the run continues physica
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -36,7 +37,8 @@ class ProtocolGeometry:
     ``name`` and ``kind`` (the drawing's, or ``"nodes"`` / ``"run"``); ``source``: where it came from;
     ``state``: per rope ``{"velocities", "edge_angles", "reference_directors"}`` arrays for a run
     frame, else empty; ``protocol_hint``: the protocol that produced a run frame (from its
-    ``run.toml``), else ``None``.
+    ``run.toml``), else ``None``; ``contact_stiffness``: the adaptive contact stiffness k_c (N/m)
+    a run frame's ``checkpoint.npz`` ended with, else ``None``.
     """
 
     name: str
@@ -51,6 +53,7 @@ class ProtocolGeometry:
     state: list[dict] = field(default_factory=list)
     protocol_hint: str | None = None
     knot_hint: str | None = None
+    contact_stiffness: float | None = None
 
 
 def is_library_knot(name: str) -> bool:
@@ -99,7 +102,8 @@ def geometry_from_source(path: str, *, radius: float | None, scale: float = 1.0,
                                length=(float(np.sum(frames[0].rest_edge_lengths))
                                        if frames[0].rest_edge_lengths is not None else _arc_length(ropes[0])),
                                source=str(p), state=state, protocol_hint=hint,
-                               knot_hint=knot_hint, held=_tie_hold(p, len(ropes[0])))
+                               knot_hint=knot_hint, held=_tie_hold(p, len(ropes[0])),
+                               contact_stiffness=_contact_stiffness(p))
     else:
         if not p.exists():
             raise ConfigError("geometry", f"no such node file or run directory: {str(p)!r}")
@@ -115,6 +119,20 @@ def geometry_from_source(path: str, *, radius: float | None, scale: float = 1.0,
                                length=_arc_length(ropes[0]), source=str(p))
     check_edges(geo)
     return geo
+
+
+def _contact_stiffness(run_dir: Path) -> float | None:
+    """The adaptive contact stiffness k_c (N/m) in a run directory's ``checkpoint.npz``, else ``None``."""
+    f = run_dir / "checkpoint.npz"
+    if not f.is_file():
+        return None
+    from knotsim.io.checkpoint import read_checkpoint
+
+    try:
+        k = read_checkpoint(f).section("interaction/contact")[0].get("k_c")
+    except (ConfigError, OSError, ValueError, KeyError):
+        return None
+    return float(k) if isinstance(k, int | float) and math.isfinite(k) and k > 0 else None
 
 
 def _tie_hold(run_dir: Path, n_nodes: int) -> tuple:
