@@ -190,7 +190,7 @@ def _find_knot_mu(df, params: list[str]) -> tuple[str | None, str | None]:
 
 
 def _knot_label(name) -> str | None:
-    n = str(name).lower()
+    n = Path(str(name)).name.lower()  # a geometry axis holds paths: only the last part names the knot
     return "granny" if "granny" in n else "reef" if "reef" in n else None
 
 
