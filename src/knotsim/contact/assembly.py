@@ -107,7 +107,7 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
         for m in range(12):
             p[m] = q[pair_dofs[k, m]]
         eta = pair_eta[k]
-        E, delta, bi, bj, case = pair_energy(p, pair_d[k], tol, grad, hess, eta, regularized)
+        E, delta, bi, bj, case = pair_energy(p, pair_d[k], tol, grad, hess, eta, regularized, want_jacobian)
         pair_delta[k] = delta
         if E <= 0.0:
             for m in range(12):

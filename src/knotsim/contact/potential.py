@@ -32,7 +32,7 @@ import math
 from numba import njit
 
 from knotsim.contact.distance import edge_edge_distance, edge_edge_distance_derivatives
-from knotsim.contact.regularized_distance import regularized_distance, regularized_distance_derivatives
+from knotsim.contact.regularized_distance import regularized_derivatives_at, regularized_distance
 
 #: K1 = IMC_SHARPNESS / δ.
 IMC_SHARPNESS = 15.0
@@ -104,14 +104,24 @@ def contact_pair_energy(p, d, tol, grad, hess, eta=0.0):
     the energy, gradient and Hessian are zero.
     """
     if eta > 0.0:
-        return pair_energy(p, d, tol, grad, hess, eta, True)
-    return pair_energy(p, d, tol, grad, hess, eta, False)
+        out = pair_energy(p, d, tol, grad, hess, eta, True, True)
+    else:
+        out = pair_energy(p, d, tol, grad, hess, eta, False, True)
+    if out[1] >= d + tol:  # out of range: zero derivatives, as documented
+        for k in range(12):
+            grad[k] = 0.0
+            for l in range(12):
+                hess[k, l] = 0.0
+    return out
 
 
 @njit(inline="always", cache=True)
-def pair_energy(p, d, tol, grad, hess, eta, regularized):
+def pair_energy(p, d, tol, grad, hess, eta, regularized, want_hessian):
     """:func:`contact_pair_energy` with the distance chosen by ``regularized`` (``True``: the
-    regularized distance with ``eta > 0``; ``False``: the exact one, ``eta`` unused).
+    regularized distance with ``eta > 0``; ``False``: the exact one, ``eta`` unused), and the
+    Hessian only when ``want_hessian`` (the regularized distance skips it then; ``hess`` is
+    undefined afterwards). For ``Δ ≥ d + δ`` it returns ``E = 0`` and leaves ``grad`` and ``hess``
+    as they were (the pair loop does not read them then).
 
     Inlined into its caller: called with a literal ``True`` or ``False``, numba compiles only that
     branch (the loop over pairs of each distance is compiled when first used, not both)."""
@@ -120,22 +130,19 @@ def pair_energy(p, d, tol, grad, hess, eta, regularized):
     else:
         delta, bi, bj, case = edge_edge_distance(p)
     if delta >= d + tol:
-        for k in range(12):
-            grad[k] = 0.0
-            for l in range(12):
-                hess[k, l] = 0.0
         return 0.0, delta, bi, bj, case
     if regularized:
-        regularized_distance_derivatives(p, eta, grad, hess)
+        regularized_derivatives_at(p, eta, delta, bi, bj, case, grad, hess, want_hessian)
     else:
         edge_edge_distance_derivatives(p, grad, hess)
     E, dE, d2E = imc_energy_derivatives(delta, d, tol)
-    for k in range(12):
-        gk = d2E * grad[k]
-        for l in range(k, 12):
-            h = dE * hess[k, l] + gk * grad[l]
-            hess[k, l] = h
-            hess[l, k] = h
+    if want_hessian:
+        for k in range(12):
+            gk = d2E * grad[k]
+            for l in range(k, 12):
+                h = dE * hess[k, l] + gk * grad[l]
+                hess[k, l] = h
+                hess[l, k] = h
     for k in range(12):
         grad[k] *= dE
     return E, delta, bi, bj, case

@@ -246,12 +246,23 @@ def regularized_distance_derivatives(p, eta, grad, hess):
     ``(delta, beta_i, beta_j, case)`` as :func:`regularized_distance`.
     """
     delta, bi, bj, case = regularized_distance(p, eta)
+    regularized_derivatives_at(p, eta, delta, bi, bj, case, grad, hess, True)
+    return delta, bi, bj, case
+
+
+@njit(cache=True)
+def regularized_derivatives_at(p, eta, delta, bi, bj, case, grad, hess, want_hessian):
+    """:func:`regularized_distance_derivatives` for a pair whose :func:`regularized_distance`
+    ``(delta, bi, bj, case)`` is already known; the Hessian only when ``want_hessian`` (``hess``
+    is left untouched otherwise). ``grad (12,)``, ``hess (12, 12)`` outputs as there."""
     for k in range(12):
         grad[k] = 0.0
-        for l in range(12):
-            hess[k, l] = 0.0
+    if want_hessian:
+        for k in range(12):
+            for l in range(12):
+                hess[k, l] = 0.0
     if delta <= TINY_DISTANCE:
-        return delta, bi, bj, case
+        return
     d1, d2, q = _edges_and_gap(p, bi, bj)
     c = (1.0 - bi, bi, -(1.0 - bj), -bj)
     ri = eta * (bi - 0.5) ** 2
@@ -264,6 +275,12 @@ def regularized_distance_derivatives(p, eta, grad, hess):
         v3.add(v3.scale(2.0 * c[3], q), v3.scale(2.0 * rj, d2)),
     )
     # f_pp: 2 c_k c_l I + 2 eta (bi-1/2)^2 S_a + 2 eta (bj-1/2)^2 S_b, S = [[1,-1],[-1,1]] blocks
+    h2 = 0.5 / delta
+    for k in range(4):
+        for m in range(3):
+            grad[3 * k + m] = h2 * gv[k][m]
+    if not want_hessian:
+        return
     sa = (-1.0, 1.0, 0.0, 0.0)
     sb = (0.0, 0.0, -1.0, 1.0)
     for k in range(4):
@@ -292,15 +309,10 @@ def regularized_distance_derivatives(p, eta, grad, hess):
             for k in range(4):
                 for l in range(4):
                     v3.outer_add(hess, 3 * k, 3 * l, -s, fj[k], fj[l])
-    # Delta = sqrt(V): grad = gV/(2 Delta), hess = HV/(2 Delta) - grad grad^T / Delta
-    h2 = 0.5 / delta
-    for k in range(4):
-        for m in range(3):
-            grad[3 * k + m] = h2 * gv[k][m]
+    # Delta = sqrt(V): grad = gV/(2 Delta) (above), hess = HV/(2 Delta) - grad grad^T / Delta
     idl = 1.0 / delta
     for k in range(12):
         for l in range(k, 12):
             h = h2 * 0.5 * (hess[k, l] + hess[l, k]) - idl * grad[k] * grad[l]
             hess[k, l] = h
             hess[l, k] = h
-    return delta, bi, bj, case

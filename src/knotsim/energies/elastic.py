@@ -15,7 +15,7 @@ import numpy as np
 from knotsim.energies.bending import bending_energy
 from knotsim.energies.stretching import stretching_energy
 from knotsim.energies.twisting import twisting_energy
-from knotsim.rods.frames import compute_tangents, material_frames, reference_twist, transport_directors
+from knotsim.rods.frames import update_frames
 
 
 @dataclass
@@ -55,10 +55,8 @@ class ElasticEnergy:
         """Tangents, reference directors (transported from ``source``), reference twist and material
         frames at ``q``."""
         m = self.model
-        compute_tangents(q, m.edge_dofs, self.tangents, self.lengths)
-        transport_directors(source.d1, source.tangents, self.tangents, self.d1)
-        reference_twist(self.d1, self.tangents, m.bend_edges, source.ref_twist, self.ref_twist)
-        material_frames(self.d1, self.tangents, q[m.edge_theta_dof], self.m1, self.m2)
+        update_frames(q, m.edge_dofs, m.edge_theta_dof, m.bend_edges, source.d1, source.tangents, source.ref_twist,
+                      self.tangents, self.lengths, self.d1, self.ref_twist, self.m1, self.m2)
 
     def evaluate(self, q: np.ndarray, source: FrameSource, want_hessian: bool = True) -> float:
         """Energy (J) at ``q``; fills ``self.grad`` (n_dofs,) with its gradient and, when

@@ -108,6 +108,31 @@ def material_frames(d1, tangents, theta, m1, m2):
             m2[e, k] = -s * a[k] + c * b[k]
 
 
+@njit(cache=True)
+def update_frames(q, edge_dofs, edge_theta_dof, bend_edges, d1_old, t_old, twist_prev, tangents, lengths, d1,
+                  ref_twist, m1, m2):
+    """All frames of a configuration in one call: :func:`compute_tangents`, then
+    :func:`transport_directors` from ``(d1_old, t_old)``, :func:`reference_twist` continuous with
+    ``twist_prev`` and :func:`material_frames` with the edge angles ``q[edge_theta_dof]``.
+
+    ``q (n_dofs,)``; ``edge_dofs (ne, 2)``, ``edge_theta_dof (ne,)``, ``bend_edges (nb, 2)`` int64;
+    outputs ``tangents, d1, m1, m2 (ne, 3)``, ``lengths (ne,)`` (m), ``ref_twist (nb,)`` (rad).
+    """
+    compute_tangents(q, edge_dofs, tangents, lengths)
+    transport_directors(d1_old, t_old, tangents, d1)
+    reference_twist(d1, tangents, bend_edges, twist_prev, ref_twist)
+    for e in range(d1.shape[0]):
+        t = (tangents[e, 0], tangents[e, 1], tangents[e, 2])
+        a = (d1[e, 0], d1[e, 1], d1[e, 2])
+        b = v3.cross(t, a)
+        th = q[edge_theta_dof[e]]
+        c = math.cos(th)
+        s = math.sin(th)
+        for k in range(3):
+            m1[e, k] = c * a[k] + s * b[k]
+            m2[e, k] = -s * a[k] + c * b[k]
+
+
 def space_parallel_directors(tangents: np.ndarray, closed: bool, first: np.ndarray | None = None) -> np.ndarray:
     """Reference directors of one rod by space-parallel transport along the rod.
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from numba import njit
 
 
@@ -61,3 +63,13 @@ def max_abs(x):
         if a > m:
             m = a
     return m
+
+
+@njit(cache=True)
+def all_finite(x):
+    """Whether every entry of ``x`` ``(n,)`` is finite (no NaN, no infinity)."""
+    for i in range(x.shape[0]):
+        a = x[i]
+        if a != a or a == math.inf or a == -math.inf:
+            return False
+    return True

@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from knotsim.errors import KnotsimError
+from knotsim.solver._kernels import all_finite
 from knotsim.solver.banded import ldlt_banded_factor, ldlt_banded_substitute
 
 
@@ -72,20 +73,24 @@ class SparseSolver:
         self._splu = None
 
     def factorize(self, n: int, indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, pattern_id: int) -> None:
-        if not np.all(np.isfinite(data)):
+        if not all_finite(data):
             raise LinearSolveError("Newton matrix has NaN or infinite entries")
         self._splu = None
         if self.method in ("auto", "fixed_lu"):
-            from knotsim.solver.lu import FixedPatternLU, ZeroPivotError
-
             if self._key != pattern_id or self._lu is None:
+                from knotsim.solver.lu import FixedPatternLU
+
                 blocks = list(self.blocks) if self.blocks is not None else 4
                 self._lu = FixedPatternLU(n, indptr, indices, blocks=blocks, recycle=self._lu)
                 self._key = pattern_id
             try:
                 self._lu.factorize(data)
                 return
-            except ZeroPivotError:
+            except ArithmeticError as exc:  # ZeroPivotError: fall back to a pivoting LU
+                from knotsim.solver.lu import ZeroPivotError
+
+                if not isinstance(exc, ZeroPivotError):
+                    raise
                 self.fallbacks += 1
         import scipy.sparse as sp  # the pivoting fallback only: scipy is not loaded by a run otherwise
         from scipy.sparse.linalg import splu

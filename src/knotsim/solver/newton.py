@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
+
+from knotsim.solver._kernels import all_finite
 
 
 class NonlinearSystem(Protocol):
@@ -33,7 +36,7 @@ def _acceptable(a: float, rn_try: float, rn: float, merit: float, merit0: float,
     """Line-search test: the residual norm fell, or the potential fell (Armijo with ``slope``)."""
     if rn_try <= (1.0 - 1e-4 * a) * rn:
         return True
-    return slope < 0.0 and bool(np.isfinite(merit)) and merit <= merit0 + 1e-4 * a * slope
+    return slope < 0.0 and math.isfinite(merit) and merit <= merit0 + 1e-4 * a * slope
 
 
 @dataclass
@@ -121,7 +124,7 @@ def _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, r
     since_best = 0
     safeguarded = False
     for it in range(max_iterations + 1):
-        if not np.isfinite(rn):
+        if not math.isfinite(rn):
             return NewtonResult(q, False, it, rn, step, cuts_total, "residual is not finite")
         # converged: residual and last step within tolerance; or residual far below tolerance; or
         # (stagnation at round-off) residual within 10x tolerance while steps are 100x below theirs
@@ -138,7 +141,7 @@ def _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, r
                 if reuse_jacobian:
                     r, rn = trial(q, True)  # the Jacobian at the current point
         dq = system.solve(-r)
-        if not np.all(np.isfinite(dq)):
+        if not all_finite(dq):
             return NewtonResult(q, False, it, rn, step, cuts_total, "linear solve gave a non-finite step")
         a = 1.0
         if safeguarded:
