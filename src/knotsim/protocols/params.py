@@ -64,7 +64,9 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "pre_pull_speed": ("m/s", "single-rod bend: speed per end during the pre-pull (none: pull_speed)"),
     "end_twist": ("text", "single-rod bend: 'clamped' (pulled end edges keep their angle) or 'free'"),
     "transient": ("s", "start-up time left out of the peak force and the slip detection"),
-    "loose_factor": ("-", "single-rod bend: 'loose' when the rope in the knot exceeds this x ideal ropelength"),
+    "loose_bend_radius": ("-", "single-rod bend: bend radius in rod radii h of the free-rope level; 'loose' when "
+                               "F h^2/EI after the transient never exceeds 1/(4 r^2) + drag (r = 2: 0.0625)"),
+    "loose_factor": ("-", "single-rod bend: metric 'tightened' = rope in the knot <= this x ideal ropelength (reported only)"),
     "mode": ("text", "two-rope bend: 'displacement' (pull at pull_speed) or 'force' (ramp at force_rate)"),
     "held_end": ("text", "two-rope bend: held end as ROPE:NODE (empty: the knot's hint)"),
     "pulled_end": ("text", "two-rope bend: pulled end as ROPE:NODE (empty: the knot's hint)"),
@@ -86,7 +88,7 @@ PARAM_RANGES: dict[str, str] = {
     "poisson_ratio": "poisson", "damping": ">=0", "mu": ">=0", "dt": ">0", "duration": ">0",
     "output_interval": ">0", "geometry_scale": ">0", "ramp_time": ">=0", "pull_speed": ">0", "e_final": ">0",
     "mean_window": ">0", "hold_time": ">=0", "hold_nodes": "int>=1", "pre_pull": ">=0",
-    "pre_pull_speed": ">0", "transient": ">=0", "loose_factor": ">0", "pull_length": ">0",
+    "pre_pull_speed": ">0", "transient": ">=0", "loose_factor": ">0", "loose_bend_radius": ">0", "pull_length": ">0",
     "pre_tighten": ">=0", "pre_tighten_speed": ">0", "force_rate": ">0", "runaway_speed": ">0",
     "slip_draw_in_rate": ">0", "slip_hold": ">=0",
 }

@@ -31,6 +31,27 @@ its 0.5 s moving average's running maximum, once that maximum exceeds half the l
 force, after the first max(2 s, 20 %) of the pull, see
 :func:`knotsim.protocols.metrics.slip_onset`); a slip is reported as the outcome ``"slipped"``; also
 ``pre_pull_time`` (s) and ``end_to_end_at_window_start`` (m).
+
+Outcome ``"loose"`` (the knot never tightened; decided before the slip rule, whose threshold is
+relative to the largest force and so fires on the wiggles of a loose knot too): the force after
+the start-up ``transient`` never leaves the free-rope level, ``F_norm_peak <= free_rope_level``
+(:func:`free_rope_level`, in units of EI/h^2). The free-rope level is the largest end force a rope can take without any contact
+holding it in the knot's shape, bending plus drag:
+
+* bending: a rope under end tension ``T`` with no contact force on it is a Kirchhoff elastica; with
+  straight tails its first integral ``EI kappa^2 / 2 = T (1 - cos theta)`` (``theta`` the tangent's
+  angle to the pull) bounds its curvature by ``kappa <= 2 sqrt(T / EI)``. A tight knot bends one
+  strand round another of the same rope, at a centreline radius ``loose_bend_radius`` x h
+  (default 2: the centreline distance of two strands in contact). Above ``T = EI / (4 (r h)^2)`` a
+  free rope cannot keep such a bend, so a larger force means contact holds the knot's strands
+  (``F h^2/EI = 1 / (4 r^2)`` = 0.0625 for r = 2);
+* drag: the viscous force ``eta v l`` per node, were the whole half-rope moving at the end speed:
+  ``eta pull_speed L / 2`` (an upper bound; ~1e-4 EI/h^2 in the shipped set-ups).
+
+The geometric test of the earlier versions (``tightened``: the rope in the knot at the end, its
+length minus the end-to-end distance, at most ``loose_factor`` x the ideal tight knot's
+ropelength) is still reported but does not decide the outcome: a knot that jams at high friction
+keeps more rope in it and still carries load.
 """
 
 from __future__ import annotations
@@ -45,6 +66,21 @@ from knotsim.protocols.metrics import ideal_ropelength, moving_average, slip_ons
 
 #: Times (s) at which F h^2/EI was read off the published figure.
 REPORT_TIMES = (2.5, 5.0, 7.5, 10.0, 12.5)
+
+
+def free_rope_level(params, EI: float, radius: float, length: float) -> float:
+    """Free-rope force level of the ``loose`` rule, in units of ``EI / h^2`` (dimensionless): the
+    largest tension at which a rope with no contact force on it can keep a bend of centreline radius
+    ``loose_bend_radius`` x ``radius`` (Kirchhoff elastica, ``T = EI / (4 (r h)^2)``), plus the
+    viscous drag of half the rope moving at ``pull_speed`` (``damping pull_speed length / 2``, N).
+    ``EI`` in N m^2, ``radius`` (h) and ``length`` (L) in m; ``params`` holds ``loose_bend_radius``
+    (-), ``damping`` (Pa s) and ``pull_speed`` (m/s). See the module docstring."""
+    r = params["loose_bend_radius"]
+    if not (isinstance(r, int | float) and r > 0 and math.isfinite(r)):
+        raise ConfigError("loose_bend_radius", f"must be a positive number of rod radii, got {r!r}")
+    bend = 1.0 / (4.0 * float(r) ** 2)
+    drag = float(params["damping"]) * float(params["pull_speed"]) * float(length) / 2.0
+    return bend + drag * radius**2 / EI
 
 
 def pre_pull_time(params) -> float:
@@ -76,7 +112,8 @@ class SingleRodBend(LoadingProtocol):
         "pre_pull_speed": None,  # m/s per end during the pre-tightening (None: pull_speed)
         "end_twist": "clamped",  # "clamped": the pulled end edges keep their angle; "free": they may twist
         "transient": 1.0,       # s of the pull left out of the peak (start-up ringing of the abrupt start)
-        "loose_factor": 3.0,    # loose: rope in the knot at the end > loose_factor x its ideal ropelength
+        "loose_bend_radius": 2.0,  # h; loose: F_norm after the transient never above the free-rope level
+        "loose_factor": 3.0,    # reported only: 'tightened' = rope in the knot <= loose_factor x ideal ropelength
         "output_interval": 0.1,
     }
     fixed_geometry = ("n_nodes", "radius", "length")
@@ -176,6 +213,11 @@ class SingleRodBend(LoadingProtocol):
         out["ideal_rope_in_knot"] = None if ideal is None else ideal * 2.0 * ctx.radius
         factor = float(ctx.params["loose_factor"])
         out["tightened"] = None if ideal is None else bool(in_knot <= factor * ideal * 2.0 * ctx.radius)
+        # loose: the force after the start-up transient never leaves the free-rope level
+        level = free_rope_level(ctx.params, ctx.EI, ctx.radius, ctx.length)
+        out["free_rope_level"] = level
+        peak = out["F_norm_peak"]
+        out["left_free_rope_level"] = None if peak is None else bool(peak > level)
         # the slip rule needs 1 s of pull after its start-up skip to see a drop
         out["decidable"] = bool(t[-1] >= t_skip + 1.0)
         return out
@@ -184,13 +226,15 @@ class SingleRodBend(LoadingProtocol):
         return metrics.get("slip_onset") is not None
 
     def verdict(self, ctx: RunContext, metrics: dict) -> str | None:
-        """``slipped`` (a force drop), else ``loose`` when the rope in the knot at the end exceeds
-        ``loose_factor`` times the ideal tight knot's (the knot never tightened), else ``undecided``
-        when the pull was too short for the slip rule (shorter than its skip + 1 s), else held."""
+        """``loose`` when the force after the start-up transient never left the free-rope level
+        (``left_free_rope_level`` false: ``F_norm_peak <= free_rope_level``, see
+        :func:`free_rope_level`; the knot never tightened, so a drop of that force is no slip), else
+        ``slipped`` (a force drop), else ``undecided`` when the pull was too short for the slip rule
+        (shorter than its skip + 1 s), else held. The geometric ``tightened`` does not decide."""
+        if metrics.get("left_free_rope_level") is False:
+            return "loose"
         if self.slipped(ctx, metrics):
             return "slipped"
-        if metrics.get("tightened") is False:
-            return "loose"
         if not metrics.get("decidable", False):
             return "undecided"
         return None
