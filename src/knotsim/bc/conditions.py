@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from knotsim.bc._kernels import prescribed_reaction
 from knotsim.bc.feedback import LoadCell, RingCut
 from knotsim.bc.grips import GripMethods
 from knotsim.bc.paths import Path, as_path
@@ -65,6 +66,8 @@ class Group:
     ring: RingCut | None = None
     #: ``(positions (n, 3), pivot (3,), angle)`` prescribed by the last evaluation (turning grips)
     current: tuple | None = field(default=None, repr=False)
+    #: the group's unknowns, worked out at its first evaluation (:class:`_Plan`)
+    plan: _Plan | None = field(default=None, repr=False, compare=False)
 
     @property
     def prescribed(self) -> bool:
@@ -73,6 +76,28 @@ class Group:
     def active(self, t: float) -> bool:
         """Whether the group acts at time ``t`` (s): ``start <= t < stop``, with a tiny tolerance."""
         return self.start - _EPS_T <= t < self.stop - _EPS_T
+
+
+class _Plan:
+    """The unknowns of a group, kept between steps (:meth:`BoundaryConditions._plan`): worked out
+    anew when the group's ``nodes``, ``edges`` or ``axes`` array is replaced.
+
+    ``xyz`` (3, n) int64 (row ``c``: coordinate ``c`` of the ``n`` nodes), ``pos_dofs`` (3 n,) node
+    by node, ``fixed_pos_dofs`` those of ``axes``, ``theta_dofs`` (e,) the edge angles."""
+
+    __slots__ = ("all_axes", "axes", "edges", "fixed_pos_dofs", "nodes", "pos_dofs", "theta_dofs", "xyz")
+
+    def __init__(self, model, g: Group):
+        self.nodes, self.edges, self.axes = g.nodes, g.edges, g.axes
+        xyz = model.node_dof[g.nodes][:, None] + np.arange(3)[None, :]
+        self.xyz = np.ascontiguousarray(xyz.T, dtype=np.int64)
+        self.pos_dofs = xyz.ravel()
+        self.fixed_pos_dofs = xyz[:, g.axes].ravel()
+        self.all_axes = bool(np.all(g.axes))
+        self.theta_dofs = np.ascontiguousarray(model.edge_theta_dof[g.edges], dtype=np.int64)
+
+
+_NO_DOFS = np.zeros(0, np.int64)
 
 
 class BoundaryConditions(GripMethods):
@@ -306,6 +331,12 @@ class BoundaryConditions(GripMethods):
         g.stop = at
 
     # ------------------------------------------------------------------ evaluation
+    def _plan(self, g: Group) -> _Plan:
+        p = g.plan
+        if p is None or p.nodes is not g.nodes or p.edges is not g.edges or p.axes is not g.axes:
+            p = g.plan = _Plan(self.model, g)
+        return p
+
     def prescribed_groups(self, t: float) -> list[Group]:
         return [g for g in self.groups.values() if g.prescribed and g.active(t)]
 
@@ -330,19 +361,17 @@ class BoundaryConditions(GripMethods):
             if g.kind == "spring":
                 self._spring_targets(g, t, q_in, t_in)
             elif g.prescribed:
-                all_dofs = m.node_dof[g.nodes][:, None] + np.arange(3)[None, :]
-                pos_dofs = all_dofs.ravel()
-                th_dofs = m.edge_theta_dof[g.edges]
+                plan = self._plan(g)
                 if g.anchor is None or g.anchor_time > t_in + _EPS_T:
-                    g.anchor = q_in[pos_dofs].reshape(-1, 3).copy()
-                    g.anchor_theta = q_in[th_dofs].copy()
+                    g.anchor = q_in[plan.pos_dofs].reshape(-1, 3).copy()
+                    g.anchor_theta = q_in[plan.theta_dofs].copy()
                     g.anchor_time = t_in
                     self._activated(g)
                 pos, th = self._prescribed_values(g, t, q_in, t_in)
-                dofs.append(all_dofs[:, g.axes].ravel())
-                vals.append(pos[:, g.axes].ravel())
+                dofs.append(plan.fixed_pos_dofs)
+                vals.append(pos.ravel() if plan.all_axes else pos[:, g.axes].ravel())
                 if th is not None:
-                    dofs.append(th_dofs)
+                    dofs.append(plan.theta_dofs)
                     vals.append(np.asarray(th, float))
             elif g.kind == "force":
                 f = g.load(t - g.start) / len(g.nodes)
@@ -364,7 +393,6 @@ class BoundaryConditions(GripMethods):
         ``residual`` is the full residual of the equations of motion at the converged state; at a
         prescribed unknown it is the force the constraint exerts on the rod (N, or N m for angles).
         """
-        m = self.model
         out = {}
         self._check_interaction(t)
         self.log_values = {}
@@ -375,11 +403,10 @@ class BoundaryConditions(GripMethods):
                 out[g.name] = np.zeros(4)
                 self._feedback_log(g, None, None, t)
                 continue
-            r = np.zeros(4)
-            for k in np.flatnonzero(g.axes):
-                r[k] = residual[m.node_dof[g.nodes] + k].sum()
-            if g.fix_twist and g.edges.size:
-                r[3] = residual[m.edge_theta_dof[g.edges]].sum()
+            plan = self._plan(g)
+            r = np.empty(4)
+            # the sums of numpy's a[idx].sum(), in its order (knotsim.bc._kernels)
+            prescribed_reaction(residual, plan.xyz, g.axes, plan.theta_dofs if g.fix_twist else _NO_DOFS, r)
             out[g.name] = r
             self._feedback_log(g, r, residual, t)
         return out

@@ -193,11 +193,8 @@ class GripMethods:
 
     def _prescribed_values(self, g, t: float, q_in: np.ndarray, t_in: float):
         """Positions ``(n, 3)`` and edge angles (or ``None``) a prescribed group imposes at ``t``."""
-        m = self.model
         e0 = max(g.anchor_time - g.start, 0.0)
-        disp = np.zeros(3)
-        if g.path is not None:
-            disp = g.path(t - g.start) - g.path(e0)
+        disp = g.path.displacement(t - g.start) - g.path.displacement(e0) if g.path is not None else np.zeros(3)
         if g.cell is not None:
             disp = disp + g.cell.direction * g.cell.displacement(t, t_in)
         th = g.anchor_theta if (g.fix_twist and g.edges.size) else None
@@ -205,6 +202,7 @@ class GripMethods:
             if th is not None and g.twist_angle is not None:
                 th = th + g.twist_angle(t - g.start) - g.twist_angle(e0)
             return g.anchor + disp[None, :], th
+        m = self.model
         a0 = g.rotation.angle(e0)
         phi = g.rotation.angle(t - g.start) - a0
         rot = rotation_matrix(g.rotation.axis, phi)

@@ -148,6 +148,14 @@ class Waypoints(Path):
     def displacement(self, elapsed: float) -> np.ndarray:
         if self.from_current and not np.all(np.isfinite(self.points[0])):
             raise ConfigError("path", "a from_current waypoint path was used before its group activated")
+        times = self.times
+        # outside the waypoints' times np.interp gives the end point: the same numbers without it
+        if elapsed >= times[-1]:
+            if self.then_velocity is None or not elapsed > times[-1]:
+                return self.points[-1] - self.points[0]
+            return (self.points[-1] + self.then_velocity * (elapsed - times[-1])) - self.points[0]
+        if elapsed <= times[0]:
+            return self.points[0] - self.points[0]
         out = np.empty(3)
         for k in range(3):
             out[k] = np.interp(elapsed, self.times, self.points[:, k])
