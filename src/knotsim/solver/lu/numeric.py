@@ -1,10 +1,10 @@
 """Numeric multifrontal LU kernels (numba): factorisation ``P A P^T = L U`` and solves.
 
 Each supernode assembles a dense row-major frontal matrix from the caller's CSC values and its
-children's update matrices, eliminates its pivots by column blocks without pivoting, stores its
-panels of ``L`` (unit lower) and ``U`` (upper) and passes its Schur complement to its parent on a
-stack. Large Schur complements use BLAS ``dgemm`` (through ``np.dot`` in numba); everything else
-is scalar loops on preallocated storage. The plan (supernodes, assembly map, panel offsets) comes
+children's update matrices, eliminates its pivots without pivoting, writes its panels of ``L``
+(unit lower) and ``U`` (upper) and passes its Schur complement to its parent on a stack. Large
+Schur complements use BLAS ``dgemm`` (through ``np.dot`` in numba); everything else is loops
+(written so that LLVM vectorises them) on preallocated storage. The plan (supernodes, assembly map, panel offsets) comes
 from :mod:`knotsim.solver.lu.symbolic`.
 """
 
@@ -33,40 +33,59 @@ def column_max_abs(data, colof, cnorm):
 
 
 _FM = {"nsz", "arcp", "contract", "reassoc"}  # fastmath without no-NaN/no-Inf (pivot checks need them)
-#: fronts with (m-w)^2 * w >= this use BLAS dgemm for the Schur complement (1024: 9 % faster
-#: factorisations of the N = 301 knot's Jacobians than 4096; never: 10 % slower)
+#: Schur complements with (m-w)^2 * w >= this use BLAS dgemm (on the N = 301 knot's Jacobians as
+#: fast as the unrolled loops; 2.5x faster than them for a (232, 232) front with w = 32)
 _GEMM_MIN = 1024
+
+# Loop style of the kernels below: inner loops run ``for j in range(n)`` over 2-D views (``F[i, k + j]``)
+# so that LLVM vectorises them; flat indexing with computed offsets (``front[i * m + j]``) and 1-D
+# slices do not vectorise in numba (measured: 2-8x slower loops).
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy")
-def _gemm_sub(F, k0, k1, m, gbuf):
-    """``F[k1:, k1:] -= F[k1:, k0:k1] @ F[k0:k1, k1:]`` for the ``(m, m)`` front ``F``.
+def _schur(F, L, S, w, r, gbuf):
+    """``S = F22 - L21 U12`` for the front ``F`` ``(m, m)`` with ``m = w + r`` pivots eliminated.
 
-    Uses BLAS ``dgemm`` on contiguous copies in ``gbuf`` when the update is large enough.
+    ``F[:w, w:]`` is ``U12`` ``(w, r)``, ``F[w:, w:]`` is ``F22``, ``L`` ``(w, m)`` holds ``L21``
+    transposed in ``L[:, w:]``; ``S`` ``(r, r)`` output (the caller's stack slot). Large updates use
+    BLAS ``dgemm`` with ``gbuf`` as contiguous scratch, small ones loops that take four pivots
+    per pass over a row of ``S`` (four times fewer loads and stores of ``S``).
     """
-    r = m - k1
-    w = k1 - k0
     if r * r * w >= _GEMM_MIN:
         L21 = gbuf[: r * w].reshape((r, w))
         U12 = gbuf[r * w : 2 * r * w].reshape((w, r))
         T = gbuf[2 * r * w : 2 * r * w + r * r].reshape((r, r))
-        for i in range(r):
-            for k in range(w):
-                L21[i, k] = F[k1 + i, k0 + k]
         for k in range(w):
-            for j in range(r):
-                U12[k, j] = F[k0 + k, k1 + j]
+            for a in range(r):
+                L21[a, k] = L[k, w + a]
+            for b in range(r):
+                U12[k, b] = F[k, w + b]
         np.dot(L21, U12, T)
-        for i in range(r):
-            for j in range(r):
-                F[k1 + i, k1 + j] -= T[i, j]
-    else:
-        for i in range(k1, m):
-            for k in range(k0, k1):
-                lik = F[i, k]
-                if lik != 0.0:
-                    for j in range(k1, m):
-                        F[i, j] -= lik * F[k, j]
+        for a in range(r):
+            for b in range(r):
+                S[a, b] = F[w + a, w + b] - T[a, b]
+        return
+    for a in range(r):
+        for b in range(r):
+            S[a, b] = F[w + a, w + b]
+        k = 0
+        while k + 4 <= w:
+            l0 = L[k, w + a]
+            l1 = L[k + 1, w + a]
+            l2 = L[k + 2, w + a]
+            l3 = L[k + 3, w + a]
+            if l0 != 0.0 or l1 != 0.0 or l2 != 0.0 or l3 != 0.0:
+                for b in range(r):
+                    S[a, b] -= (l0 * F[k, w + b] + l1 * F[k + 1, w + b]) + (
+                        l2 * F[k + 2, w + b] + l3 * F[k + 3, w + b]
+                    )
+            k += 4
+        while k < w:
+            lak = L[k, w + a]
+            if lak != 0.0:
+                for b in range(r):
+                    S[a, b] -= lak * F[k, w + b]
+            k += 1
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy")
@@ -97,11 +116,13 @@ def mf_factorize(
 
     Each supernode ``s`` (width ``w``, front size ``m``) assembles its dense row-major front
     ``F`` ``(m, m)`` in ``front`` from ``data`` ``(nnz,)`` and its children's update matrices,
-    eliminates its ``w`` pivots, stores ``L`` (unit, below the diagonal) and ``U`` (diagonal and
-    right of it) as ``(w, m)`` panels ``PL[b, a] = F[a, b]`` and ``PU[b, a] = F[b, a]`` at
-    ``poff[s]``, and pushes its ``(m-w, m-w)`` Schur complement on ``stack``. Large Schur
-    complements use BLAS ``dgemm`` with ``gbuf`` as contiguous scratch.
-    Returns ``-1`` on success or the permuted index of the first bad pivot.
+    eliminates its ``w`` pivot rows (right-looking), solves ``L21 = F21 U11^-1`` straight into the
+    ``L`` panel, and writes its Schur complement ``F22 - L21 U12`` ``(m-w, m-w)`` straight onto
+    ``stack``. The panels at ``poff[s]`` are ``(w, m)``: ``PU[b, a] = U[b, a]`` (``a >= b``) and
+    ``PL[b, a] = L[a, b]`` (``a > b``) with the pivot ``PL[b, b] = U[b, b]``; the other entries
+    are unused. ``gbuf`` is scratch for BLAS; ``nb`` is unused (the pivot rows are not blocked:
+    fronts have a few dozen rows). Returns ``-1`` on success or the permuted index of the first
+    bad pivot (its value is left in ``front``).
     """
     ns = sf.shape[0] - 1
     column_max_abs(data, colof, cnorm)
@@ -130,39 +151,40 @@ def mf_factorize(
                     front[ra + rel[rb + b]] += stack[so + b]
             sp = off
         F = front[: m * m].reshape((m, m))
-        # blocked partial factorisation of the first w rows/columns, the trailing updates of
-        # each column block (including the Schur complement F22 -= F21 F12) through _gemm_sub
-        for k0 in range(0, w, nb):
-            k1 = min(k0 + nb, w)
-            for k in range(k0, k1):
-                piv = F[k, k]
-                if not (abs(piv) > tol * cnorm[f + k]) or not np.isfinite(piv):
-                    return f + k
-                inv = 1.0 / piv
-                for i in range(k + 1, m):
-                    lik = F[i, k] * inv
-                    F[i, k] = lik
-                    if lik != 0.0:
-                        for j in range(k + 1, k1):
-                            F[i, j] -= lik * F[k, j]
-            for i in range(k0 + 1, k1):
-                for k in range(k0, i):
-                    lik = F[i, k]
-                    if lik != 0.0:
-                        for j in range(k1, m):
-                            F[i, j] -= lik * F[k, j]
-            _gemm_sub(F, k0, k1, m, gbuf)
         po = poff[s]
-        for b in range(w):
-            bm = po + b * m
-            for a in range(m):
-                PL[bm + a] = F[a, b]
-                PU[bm + a] = F[b, a]
-        if sparent[s] != -1:
+        L = PL[po : po + w * m].reshape((w, m))
+        U = PU[po : po + w * m].reshape((w, m))
+        # the w pivot rows: U (diagonal and right of it) and L11 (strictly lower) in place
+        for k in range(w):
+            piv = F[k, k]
+            if not (abs(piv) > tol * cnorm[f + k]) or not np.isfinite(piv):
+                return f + k
+            inv = 1.0 / piv
+            n1 = m - k - 1
+            for i in range(k + 1, w):
+                lik = F[i, k] * inv
+                F[i, k] = lik
+                if lik != 0.0:
+                    for j in range(n1):
+                        F[i, k + 1 + j] -= lik * F[k, k + 1 + j]
+        # L21 = F21 U11^-1 by columns, stored transposed in L[:, w:]; the panels
+        for k in range(w):
             for a in range(r):
-                so = sp + a * r
-                for b in range(r):
-                    stack[so + b] = F[w + a, w + b]
+                L[k, w + a] = F[w + a, k]
+            for j in range(k):
+                ujk = F[j, k]
+                if ujk != 0.0:
+                    for a in range(r):
+                        L[k, w + a] -= ujk * L[j, w + a]
+            inv = 1.0 / F[k, k]
+            for a in range(r):
+                L[k, w + a] *= inv
+            for i in range(k, w):
+                L[k, i] = F[i, k]
+            for j in range(m):
+                U[k, j] = F[k, j]
+        if sparent[s] != -1:
+            _schur(F, L, stack[sp : sp + r * r].reshape((r, r)), w, r, gbuf)
             stk_sn[depth] = s
             stk_off[depth] = sp
             depth += 1
