@@ -83,11 +83,6 @@ def friction_pair(p, p_prev, dt, mu, nu, fc, dfc, beta_i, beta_j, dbeta_i, dbeta
     want_jacobian : when ``False`` only ``force_out`` is computed (``dfc``, ``dbeta_*`` and
         ``jac_out`` are not touched), for residual-only evaluations.
     """
-    for r in range(12):
-        force_out[r] = 0.0
-        if want_jacobian:
-            for m in range(12):
-                jac_out[r, m] = 0.0
     f0 = v3.load(fc, 0)
     f1 = v3.load(fc, 3)
     f2 = v3.load(fc, 6)
@@ -95,6 +90,11 @@ def friction_pair(p, p_prev, dt, mu, nu, fc, dfc, beta_i, beta_j, dbeta_i, dbeta
     S = v3.add(f0, f1)
     sn = v3.norm(S)
     if not sn > TINY_FORCE:
+        for r in range(12):
+            force_out[r] = 0.0
+            if want_jacobian:
+                for m in range(12):
+                    jac_out[r, m] = 0.0
         return
     n = v3.scale(1.0 / sn, S)
     fn = (v3.norm(f0), v3.norm(f1), v3.norm(f2), v3.norm(f3))

@@ -19,7 +19,7 @@ import numpy as np
 from knotsim.energies.elastic import ElasticEnergy, FrameSource
 from knotsim.errors import ConfigError
 from knotsim.solver import assembly as asm
-from knotsim.solver._kernels import free_part, implicit_residual, max_abs, split_max_abs
+from knotsim.solver._kernels import all_finite, free_part, implicit_residual, max_abs, split_max_abs
 from knotsim.solver.linear import BandedSolver, LinearSolveError, SparseSolver
 from knotsim.solver.newton import newton_solve
 from knotsim.solver.state import State
@@ -495,7 +495,7 @@ class Stepper:
             raise StepFailure(f"{type(exc).__name__}: {exc}" if isinstance(exc, ArithmeticError) else str(exc)) from exc
         if not res.converged:
             raise StepFailure(f"{res.reason}{self._where(system, res.q)}")
-        if not np.all(np.isfinite(res.q)):
+        if not all_finite(res.q):
             raise StepFailure("Newton returned non-finite positions")
         for inter in self.interactions:
             try:
