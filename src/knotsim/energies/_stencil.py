@@ -37,34 +37,64 @@ def scatter_gradient(gz, scale, dofs, grad):
 
 
 @njit(inline="always", cache=True)
-def hessian_to_stencil(Hz, scale, out, accumulate=False):
-    """``out (11, 11) = scale * T^T Hz T`` (``+=`` when ``accumulate``)."""
-    if not accumulate:
-        for i in range(11):
-            for j in range(11):
-                out[i, j] = 0.0
+def hessian_to_stencil(Hz, scale, out, W, accumulate=False):
+    """``out (11, 11) = scale * T^T Hz T`` (``+=`` when ``accumulate``); ``W (8, 11)`` scratch.
+
+    By blocks: the stencil's ``x_{i-1}, x_i, x_{i+1}`` see ``-e``, ``e - f`` and ``f`` (the thetas
+    themselves), so ``W = scale * Hz T`` combines pairs of columns of ``Hz`` and ``T^T W`` pairs of
+    rows of ``W`` (no zeroing pass, no branches).
+    """
     for a in range(8):
-        ja1, ca1, ja2, ca2 = zmap(a)
-        for b in range(8):
-            h = scale * Hz[a, b]
-            if h == 0.0:
-                continue
-            jb1, cb1, jb2, cb2 = zmap(b)
-            out[ja1, jb1] += ca1 * cb1 * h
-            if cb2 != 0.0:
-                out[ja1, jb2] += ca1 * cb2 * h
-            if ca2 != 0.0:
-                out[ja2, jb1] += ca2 * cb1 * h
-                if cb2 != 0.0:
-                    out[ja2, jb2] += ca2 * cb2 * h
+        for p in range(3):
+            he = scale * Hz[a, p]
+            hf = scale * Hz[a, 4 + p]
+            W[a, p] = -he
+            W[a, 4 + p] = he - hf
+            W[a, 8 + p] = hf
+        W[a, 3] = scale * Hz[a, 3]
+        W[a, 7] = scale * Hz[a, 7]
+    if accumulate:
+        for j in range(11):
+            for p in range(3):
+                we = W[p, j]
+                wf = W[4 + p, j]
+                out[p, j] -= we
+                out[4 + p, j] += we - wf
+                out[8 + p, j] += wf
+            out[3, j] += W[3, j]
+            out[7, j] += W[7, j]
+    else:
+        for j in range(11):
+            for p in range(3):
+                we = W[p, j]
+                wf = W[4 + p, j]
+                out[p, j] = -we
+                out[4 + p, j] = we - wf
+                out[8 + p, j] = wf
+            out[3, j] = W[3, j]
+            out[7, j] = W[7, j]
 
 
 @njit(inline="always", cache=True)
-def set_block(H, r0, c0, s, a, b):
-    """``H[r0:r0+3, c0:c0+3] += s * outer(a, b)``."""
+def add_edge_blocks(out, A, B, C):
+    """``out (11, 11) += T^T Hz T`` for an ``Hz`` with only edge-edge blocks: ``A`` (e-e), ``B``
+    (e-f), ``B^T`` (f-e) and ``C`` (f-f), each ``(3, 3)``; the nine ``3 x 3`` position blocks
+    of the stencil."""
     for p in range(3):
         for k in range(3):
-            H[r0 + p, c0 + k] += s * a[p] * b[k]
+            a = A[p, k]
+            b = B[p, k]
+            bt = B[k, p]
+            c = C[p, k]
+            out[p, k] += a
+            out[p, 4 + k] += b - a
+            out[p, 8 + k] -= b
+            out[4 + p, k] += bt - a
+            out[4 + p, 4 + k] += (a + c) - (b + bt)
+            out[4 + p, 8 + k] += b - c
+            out[8 + p, k] -= bt
+            out[8 + p, 4 + k] += bt - c
+            out[8 + p, 8 + k] += c
 
 
 @njit(inline="always", cache=True)

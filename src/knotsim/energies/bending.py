@@ -23,87 +23,77 @@ import numpy as np
 from numba import njit
 
 from knotsim import _vec3 as v3
-from knotsim.energies._stencil import hessian_to_stencil, scatter_gradient, set_block, stencil_geometry
+from knotsim.energies._stencil import hessian_to_stencil, scatter_gradient, stencil_geometry
 
 
 @njit(cache=True)
-def _add_curvature_hessians(Hz, H, k1, k2, dk1, dk2, n0, n1, chi, t0, t1, tt, kb, d1t, d2t, m1e, m1f, m2e, m2f):
-    """``Hz (8, 8) += dk1 * H_kappa1 + dk2 * H_kappa2``: the Hessians (edge variables) of the two
-    material curvatures, each built in the scratch ``H (8, 8)``.
+def _add_curvature_hessians(Hz, kap, dv, me, mf, te, tf, n0, n1, chi, t0, t1, tt, kb):
+    """``Hz (8, 8) += dk1 * H_kappa1 + dk2 * H_kappa2``, the Hessians (edge variables) of the two
+    material curvatures weighted by ``dk = kappa - kappa_bar``, in one pass.
 
-    For ``kappa1``: ``sgn = +1``, ``dt = d~2``, ``me, mf = m2_e, m2_f``, ``me_th, mf_th = m1_e, m1_f``.
-    For ``kappa2``: ``sgn = -1``, ``dt = d~1``, ``me, mf = m1_e, m1_f``, ``me_th, mf_th = m2_e, m2_f``.
-    A call, not numba-inlined: inlining it (once or twice) doubled or tripled the bending kernel's
-    first-run compile time for no measurable gain in speed.
+    Every term of ``H_kappa`` is linear in one of ``kappa``, ``d~``, ``m_e``, ``m_f`` or
+    ``m_e^th``, ``m_f^th`` (with a sign ``+1`` for ``kappa1`` and ``-1`` for ``kappa2`` on the
+    ``d~`` and ``m`` terms), so the weighted sum is one ``H_kappa`` with the combined arguments
+    ``kap = dk1 kappa1 + dk2 kappa2``, ``dv = dk1 d~2 - dk2 d~1``, ``me = dk1 m2_e - dk2 m1_e``,
+    ``mf = dk1 m2_f - dk2 m1_f``, ``te = dk1 m1_e + dk2 m2_e``, ``tf = dk1 m1_f + dk2 m2_f``.
+    A call, not numba-inlined (inlining multiplied the bending kernel's first-run compile time).
     """
-    for comp in range(2):
-        if comp == 0:
-            kap, sgn, dt, me, mf, me_th, mf_th, dk = k1, 1.0, d2t, m2e, m2f, m1e, m1f, dk1
-        else:
-            kap, sgn, dt, me, mf, me_th, mf_th, dk = k2, -1.0, d1t, m1e, m1f, m2e, m2f, dk2
-        for i in range(8):
-            for j in range(8):
-                H[i, j] = 0.0
-        c1 = v3.cross(t1, dt)  # t_f x d~
-        c0 = v3.cross(t0, dt)  # t_e x d~
-        # e-e block
-        s = 1.0 / (n0 * n0)
-        set_block(H, 0, 0, 2.0 * kap * s, tt, tt)
-        set_block(H, 0, 0, -sgn * s, c1, tt)
-        set_block(H, 0, 0, -sgn * s, tt, c1)
-        for p in range(3):
-            H[p, p] += -kap * s / chi
-        set_block(H, 0, 0, kap * s / chi, t0, t0)
-        set_block(H, 0, 0, sgn * 0.25 * s, kb, me)
-        set_block(H, 0, 0, sgn * 0.25 * s, me, kb)
-        # f-f block
-        s = 1.0 / (n1 * n1)
-        set_block(H, 4, 4, 2.0 * kap * s, tt, tt)
-        set_block(H, 4, 4, sgn * s, c0, tt)
-        set_block(H, 4, 4, sgn * s, tt, c0)
-        for p in range(3):
-            H[4 + p, 4 + p] += -kap * s / chi
-        set_block(H, 4, 4, kap * s / chi, t1, t1)
-        set_block(H, 4, 4, sgn * 0.25 * s, kb, mf)
-        set_block(H, 4, 4, sgn * 0.25 * s, mf, kb)
-        # e-f block and its transpose
-        s = 1.0 / (n0 * n1)
-        for p in range(3):
-            for k in range(3):
-                val = -kap * s / chi * ((1.0 if p == k else 0.0) + t0[p] * t1[k])
-                val += s * (2.0 * kap * tt[p] * tt[k] - sgn * c1[p] * tt[k] + sgn * tt[p] * c0[k])
-                H[p, 4 + k] += val
-        v3.skew_add(H, 0, 4, -sgn * s, dt)
-        for p in range(3):
-            for k in range(3):
-                H[4 + k, p] = H[p, 4 + k]
-        # theta-theta
-        H[3, 3] = -0.5 * sgn * v3.dot(kb, me)
-        H[7, 7] = -0.5 * sgn * v3.dot(kb, mf)
-        # theta - e/f mixed
-        ae = 0.5 * v3.dot(kb, me_th)
-        af = 0.5 * v3.dot(kb, mf_th)
-        x1e = v3.cross(t1, me_th)
-        x1f = v3.cross(t1, mf_th)
-        x0e = v3.cross(t0, me_th)
-        x0f = v3.cross(t0, mf_th)
-        for p in range(3):
-            # d2 kappa / de d theta_e, de d theta_f, df d theta_e, df d theta_f
-            ve = (ae * tt[p] - x1e[p] / chi) / n0
-            vf = (af * tt[p] - x1f[p] / chi) / n0
-            we = (ae * tt[p] + x0e[p] / chi) / n1
-            wf = (af * tt[p] + x0f[p] / chi) / n1
-            H[p, 3] = ve
-            H[3, p] = ve
-            H[p, 7] = vf
-            H[7, p] = vf
-            H[4 + p, 3] = we
-            H[3, 4 + p] = we
-            H[4 + p, 7] = wf
-            H[7, 4 + p] = wf
-        for i in range(8):
-            for j in range(8):
-                Hz[i, j] += dk * H[i, j]
+    c1 = v3.cross(t1, dv)  # t_f x d~
+    c0 = v3.cross(t0, dv)  # t_e x d~
+    # e-e and f-f blocks
+    se = 1.0 / (n0 * n0)
+    sf = 1.0 / (n1 * n1)
+    for p in range(3):
+        for k in range(3):
+            dd = 1.0 if p == k else 0.0
+            Hz[p, k] += se * (
+                2.0 * kap * tt[p] * tt[k]
+                - c1[p] * tt[k]
+                - tt[p] * c1[k]
+                + kap / chi * (t0[p] * t0[k] - dd)
+                + 0.25 * (kb[p] * me[k] + me[p] * kb[k])
+            )
+            Hz[4 + p, 4 + k] += sf * (
+                2.0 * kap * tt[p] * tt[k]
+                + c0[p] * tt[k]
+                + tt[p] * c0[k]
+                + kap / chi * (t1[p] * t1[k] - dd)
+                + 0.25 * (kb[p] * mf[k] + mf[p] * kb[k])
+            )
+    # e-f block and its transpose
+    s = 1.0 / (n0 * n1)
+    for p in range(3):
+        for k in range(3):
+            val = -kap * s / chi * ((1.0 if p == k else 0.0) + t0[p] * t1[k])
+            val += s * (2.0 * kap * tt[p] * tt[k] - c1[p] * tt[k] + tt[p] * c0[k])
+            Hz[p, 4 + k] += val
+            Hz[4 + k, p] += val
+    v3.skew_add(Hz, 0, 4, -s, dv)
+    v3.skew_add(Hz, 4, 0, s, dv)  # the transpose of [dv]_x is -[dv]_x
+    # theta-theta
+    Hz[3, 3] += -0.5 * v3.dot(kb, me)
+    Hz[7, 7] += -0.5 * v3.dot(kb, mf)
+    # theta - e/f mixed
+    ae = 0.5 * v3.dot(kb, te)
+    af = 0.5 * v3.dot(kb, tf)
+    x1e = v3.cross(t1, te)
+    x1f = v3.cross(t1, tf)
+    x0e = v3.cross(t0, te)
+    x0f = v3.cross(t0, tf)
+    for p in range(3):
+        # d2 kappa / de d theta_e, de d theta_f, df d theta_e, df d theta_f
+        ve = (ae * tt[p] - x1e[p] / chi) / n0
+        vf = (af * tt[p] - x1f[p] / chi) / n0
+        we = (ae * tt[p] + x0e[p] / chi) / n1
+        wf = (af * tt[p] + x0f[p] / chi) / n1
+        Hz[p, 3] += ve
+        Hz[3, p] += ve
+        Hz[p, 7] += vf
+        Hz[7, p] += vf
+        Hz[4 + p, 3] += we
+        Hz[3, 4 + p] += we
+        Hz[4 + p, 7] += wf
+        Hz[7, 4 + p] += wf
 
 
 @njit(cache=True)
@@ -113,8 +103,8 @@ def bending_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2, EI, voro
     g1 = np.zeros(8)
     g2 = np.zeros(8)
     gz = np.zeros(8)
-    H1 = np.zeros((8, 8))
     Hz = np.zeros((8, 8))
+    W = np.zeros((8, 11))
     energy = 0.0
     for s in range(nb):
         e, f, t0, t1, n0, n1, chi, tt, kb = stencil_geometry(bend_edges, tangents, lengths, s)
@@ -155,6 +145,12 @@ def bending_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2, EI, voro
             for i in range(8):
                 for j in range(8):
                     Hz[i, j] = g1[i] * g1[j] + g2[i] * g2[j]
-            _add_curvature_hessians(Hz, H1, k1, k2, dk1, dk2, n0, n1, chi, t0, t1, tt, kb, d1t, d2t, m1e, m1f, m2e, m2f)
-            hessian_to_stencil(Hz, coef, hess[s])
+            kap = dk1 * k1 + dk2 * k2
+            dv = v3.sub(v3.scale(dk1, d2t), v3.scale(dk2, d1t))
+            me = v3.sub(v3.scale(dk1, m2e), v3.scale(dk2, m1e))
+            mf = v3.sub(v3.scale(dk1, m2f), v3.scale(dk2, m1f))
+            te = v3.add(v3.scale(dk1, m1e), v3.scale(dk2, m2e))
+            tf = v3.add(v3.scale(dk1, m1f), v3.scale(dk2, m2f))
+            _add_curvature_hessians(Hz, kap, dv, me, mf, te, tf, n0, n1, chi, t0, t1, tt, kb)
+            hessian_to_stencil(Hz, coef, hess[s], W)
     return energy

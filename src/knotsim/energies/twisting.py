@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from knotsim import _vec3 as v3
-from knotsim.energies._stencil import hessian_to_stencil, scatter_gradient, set_block, stencil_geometry
+from knotsim.energies._stencil import add_edge_blocks, scatter_gradient, stencil_geometry
 
 
 @njit(cache=True)
@@ -25,8 +25,11 @@ def twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, ref_twist, GJ, 
                     grad, hess, want_hessian, twist_out, accumulate=False):
     nb = bend_dofs.shape[0]
     gz = np.zeros(8)
-    Hz = np.zeros((8, 8))
     energy = 0.0
+    gx = np.zeros(11)
+    A = np.zeros((3, 3))
+    B = np.zeros((3, 3))
+    C = np.zeros((3, 3))
     for s in range(nb):
         _, _, t0, t1, n0, n1, chi, tt, kb = stencil_geometry(bend_edges, tangents, lengths, s)
         m = q[bend_dofs[s, 7]] - q[bend_dofs[s, 3]] + ref_twist[s]
@@ -39,34 +42,40 @@ def twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, ref_twist, GJ, 
             gz[4 + p] = 0.5 * kb[p] / n1
         gz[3] = -1.0
         gz[7] = 1.0
-        for p in range(8):
-            Hz[p, p] = 0.0
         if want_hessian:
-            for i in range(8):
-                for j in range(8):
-                    Hz[i, j] = gz[i] * gz[j]
-            # dm * (Hessian of the reference twist)
+            # coef * (gx gx^T + dm * T^T H_rt T) with gx = T^T gz the stencil gradient of m and
+            # H_rt the Hessian of the reference twist (nonzero in its e-e, e-f, f-e, f-f blocks)
+            for p in range(3):
+                gx[p] = -gz[p]
+                gx[4 + p] = gz[p] - gz[4 + p]
+                gx[8 + p] = gz[4 + p]
+            gx[3] = -1.0
+            gx[7] = 1.0
+            out = hess[s]
+            if accumulate:
+                for i in range(11):
+                    ci = coef * gx[i]
+                    for j in range(11):
+                        out[i, j] += ci * gx[j]
+            else:
+                for i in range(11):
+                    ci = coef * gx[i]
+                    for j in range(11):
+                        out[i, j] = ci * gx[j]
             a = v3.add(t0, tt)
             b = v3.add(t1, tt)
             s0 = -0.25 * dm / (n0 * n0)
             s1 = -0.25 * dm / (n1 * n1)
-            set_block(Hz, 0, 0, s0, kb, a)
-            set_block(Hz, 0, 0, s0, a, kb)
-            set_block(Hz, 4, 4, s1, kb, b)
-            set_block(Hz, 4, 4, s1, b, kb)
             s2 = 0.5 * dm / (n0 * n1)
-            # e-f block: (2/chi [t0]_x - kb t~^T) / (2 n0 n1)
-            for p in range(3):
-                for k in range(3):
-                    Hz[p, 4 + k] += -s2 * kb[p] * tt[k]
             w = 2.0 / chi
-            v3.skew_add(Hz, 0, 4, s2 * w, t0)
-            # f-e block = transpose (the transpose of [t0]_x is -[t0]_x)
             for p in range(3):
                 for k in range(3):
-                    Hz[4 + k, p] += -s2 * kb[p] * tt[k]
-            v3.skew_add(Hz, 4, 0, -s2 * w, t0)
-            hessian_to_stencil(Hz, coef, hess[s], accumulate)
+                    A[p, k] = coef * s0 * (kb[p] * a[k] + a[p] * kb[k])
+                    C[p, k] = coef * s1 * (kb[p] * b[k] + b[p] * kb[k])
+                    # e-f block: (2/chi [t0]_x - kb t~^T) / (2 n0 n1); f-e is its transpose
+                    B[p, k] = -coef * s2 * kb[p] * tt[k]
+            v3.skew_add(B, 0, 0, coef * s2 * w, t0)
+            add_edge_blocks(out, A, B, C)
         for p in range(8):
             gz[p] *= dm
         scatter_gradient(gz, coef, bend_dofs[s], grad)
