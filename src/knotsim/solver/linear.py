@@ -60,7 +60,22 @@ class BandedSolver:
         return x
 
 
+#: A new sparsity pattern is analysed with the ordering of the last fresh minimum-degree analysis
+#: as long as its fill stays within this factor of that analysis' fill (scaled by the number of
+#: nonzeros of the matrix); beyond it the ordering is computed afresh.
+REORDER_FILL_FACTOR = 1.2
+
+
 class SparseSolver:
+    """Sparse LU of Newton's matrix: knotsim's fixed-pattern LU (``FixedPatternLU``), analysed once
+    per sparsity pattern, with ``scipy.sparse.linalg.splu`` as the pivoting fallback.
+
+    Pattern changes (contact pairs coming into range) reuse the fill-reducing ordering of the last
+    fresh analysis while the fill stays within ``REORDER_FILL_FACTOR`` of it: the minimum-degree
+    ordering is the costliest part of an analysis (48 ms of 90 ms for 24k unknowns), and a pattern
+    that gained or lost a few blocks is ordered almost as well by it. The factorisation is exact for
+    any ordering (only round-off differs)."""
+
     def __init__(self, method: str = "auto", blocks=None):
         """``blocks``: starts of the node blocks of unknowns (``model.node_dof``) for the ordering."""
         if method not in ("auto", "splu", "fixed_lu"):
@@ -68,9 +83,30 @@ class SparseSolver:
         self.method = method
         self.blocks = blocks
         self.fallbacks = 0
+        #: symbolic analyses done, and how many of them computed a fresh ordering
+        self.analyses = 0
+        self.fresh_orderings = 0
         self._lu = None
         self._key = None
         self._splu = None
+        self._order = None  # (perm, nnz_L, nnz_A) of the last fresh ordering
+
+    def _analyse(self, n: int, indptr: np.ndarray, indices: np.ndarray):
+        from knotsim.solver.lu import FixedPatternLU
+
+        blocks = list(self.blocks) if self.blocks is not None else 4
+        self.analyses += 1
+        nnz = int(indptr[n])
+        if self._order is not None and self._order[0].shape[0] == n:
+            perm, fill, nnz0 = self._order
+            lu = FixedPatternLU(n, indptr, indices, ordering=perm, recycle=self._lu)
+            if lu.nnz_L <= REORDER_FILL_FACTOR * fill * max(nnz / nnz0, 1.0):
+                return lu
+            self._lu = lu
+        lu = FixedPatternLU(n, indptr, indices, blocks=blocks, recycle=self._lu)
+        self.fresh_orderings += 1
+        self._order = (lu.perm.copy(), lu.nnz_L, nnz)
+        return lu
 
     def factorize(self, n: int, indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, pattern_id: int) -> None:
         if not all_finite(data):
@@ -78,10 +114,7 @@ class SparseSolver:
         self._splu = None
         if self.method in ("auto", "fixed_lu"):
             if self._key != pattern_id or self._lu is None:
-                from knotsim.solver.lu import FixedPatternLU
-
-                blocks = list(self.blocks) if self.blocks is not None else 4
-                self._lu = FixedPatternLU(n, indptr, indices, blocks=blocks, recycle=self._lu)
+                self._lu = self._analyse(n, indptr, indices)
                 self._key = pattern_id
             try:
                 self._lu.factorize(data)
