@@ -57,6 +57,7 @@ class Simulation:
         #: the per-step log: one dict per accepted step (a :class:`~knotsim.solver.steplog.StepLog`,
         #: packed by columns; the newest rows are live dicts)
         self.rows: StepLog = StepLog()
+        self._row_keys: dict = {}
         self.n_failures = 0
         #: ``[(name, t_start, t_end), ...]`` (s): stages of the run description; each log row names
         #: the stage its step belongs to (column ``stage``).
@@ -111,11 +112,23 @@ class Simulation:
     def _row(self, res: StepResult) -> dict:
         row = {"time": res.time, "dt": res.dt, "iterations": res.iterations, "residual": res.residual,
                "line_search_cuts": res.line_search_cuts, "attempts": res.attempts}
+        keys = self._row_keys  # the column names, made once per energy and reaction name
         for k, v in res.energies.items():
-            row[f"energy_{k}"] = v
+            key = keys.get(k)
+            if key is None:
+                key = keys[k] = f"energy_{k}"
+            row[key] = v
         for name, r in res.reactions.items():
-            row[f"{name}_fx"], row[f"{name}_fy"], row[f"{name}_fz"], row[f"{name}_moment"] = (float(x) for x in r)
-            row[f"{name}_force"] = float(np.linalg.norm(r[:3]))
+            names = keys.get((name,))
+            if names is None:
+                names = keys[(name,)] = tuple(f"{name}_{c}" for c in ("fx", "fy", "fz", "moment", "force"))
+            if type(r) is np.ndarray and r.dtype == np.float64 and r.shape == (4,):
+                row[names[0]], row[names[1]], row[names[2]], row[names[3]] = r.tolist()
+                f = r[:3]
+                row[names[4]] = math.sqrt(f.dot(f))  # np.linalg.norm(f), the same operations
+            else:
+                row[names[0]], row[names[1]], row[names[2]], row[names[3]] = (float(x) for x in r)
+                row[names[4]] = float(np.linalg.norm(r[:3]))
         row.update(res.interaction_stats)
         if self.stages:
             # a step belongs to the stage whose boundary conditions governed it: the one active at its

@@ -56,3 +56,29 @@ def test_packed_log_is_small():
         log.append({f"c{k}": float(i + k) for k in range(8)})
     packed = sum(a.nbytes + (m.nbytes if m is not None else 0) for _, cols in log._chunks for a, m in cols.values())
     assert packed / log._n_cold <= 8 * 8 + 1
+
+
+def test_uniform_rows_of_every_kind_of_value():
+    """Rows with the same keys (packed by transposing): each column keeps its kind, as in pandas."""
+    rows = []
+    for i in range(2 * HOT_ROWS + 40):
+        rows.append({"time": i * 0.1, "n": i, "np_float": np.float64(i) / 3, "np_int": np.int64(i),
+                     "flag": bool(i % 2), "np_flag": np.bool_(i % 3 == 0), "stage": "pull" if i % 5 else "hold",
+                     "mixed": 1 if i % 4 else 2.5,
+                     "bool_and_int": True if i % 2 else 7})
+    log = StepLog()
+    for r in rows:
+        log.append(dict(r))
+    assert log._n_cold >= HOT_ROWS and log._chunks
+    assert list(log) == rows
+    assert type(log[0]["n"]) is int and type(log[0]["flag"]) is bool and type(log[0]["stage"]) is str
+    frame = log.to_frame()
+    pd.testing.assert_frame_equal(frame, pd.DataFrame(rows))
+    assert frame["flag"].dtype == bool and frame["n"].dtype == np.int64 and frame["mixed"].dtype == float
+
+
+def test_one_column_and_empty_rows():
+    rows = [{"time": 0.1 * i} for i in range(2 * HOT_ROWS + 3)] + [{} for _ in range(2 * HOT_ROWS + 3)]
+    log = StepLog(rows)
+    assert list(log) == rows
+    pd.testing.assert_frame_equal(log.to_frame(), pd.DataFrame(rows))

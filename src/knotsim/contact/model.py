@@ -47,6 +47,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from knotsim.contact._model_kernels import gap_summary, same_values, unblocked_in_range
 from knotsim.contact.assembly import (
     approach_forces,
     contact_evaluate_exact,
@@ -86,6 +87,10 @@ class _Eval:
     delta: np.ndarray = field(default_factory=lambda: np.zeros(0))
     fc: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)))
     ff: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)))
+
+
+#: No evaluation yet this step (shared: an ``_Eval`` is never changed after it is made).
+_NO_EVAL = _Eval()
 
 
 class Contact:
@@ -148,7 +153,11 @@ class Contact:
         self.pattern_version = 0
         self._q_prev = None
         self._dt = 1.0
-        self._last = _Eval()
+        #: ``(q, q_build, drift)`` of the last :meth:`_max_displacement` (reused at the same q)
+        self._drift_at = None
+        #: ``(key, tol, reach)`` of the swept test of the listed pairs (:meth:`check`)
+        self._swept_limits = None
+        self._last = _NO_EVAL
         self._stats: dict = {}
         self.timers = {"broad_phase": 0.0, "narrow_phase": 0.0}
 
@@ -178,7 +187,14 @@ class Contact:
         m = self.model
         if self._q_build is None or not m.n_nodes:
             return math.inf
-        return node_drift(q, self._q_build, m.node_dof)
+        # the next step's begin_step asks again at the q the last check was given: reuse the drift
+        # if nothing changed (the same arrays holding the same numbers)
+        last = self._drift_at
+        if last is not None and last[1] is self._q_build and last[0].shape == q.shape and same_values(last[0], q):
+            return last[2]
+        drift = node_drift(q, self._q_build, m.node_dof)
+        self._drift_at = (q.copy(), self._q_build, drift)
+        return drift
 
     def _broad_phase(self, q, extra: float) -> np.ndarray:
         m = self.model
@@ -216,7 +232,7 @@ class Contact:
             self.n_rebuilds += 1
         self._q_prev = q
         self._dt = dt
-        self._last = _Eval()
+        self._last = _NO_EVAL
         self.timers["broad_phase"] += time.perf_counter() - t0
         if s.stiffness_mode == "adaptive":
             t1 = time.perf_counter()
@@ -288,8 +304,8 @@ class Contact:
         self._dt = dt
         blocks = None
         if want_jacobian:
-            live = ev.delta < self.pair_d + self.settings.delta
-            if np.any(live & ~self._block_mask):
+            if unblocked_in_range(ev.delta, self.pair_d, self.settings.delta, self._block_mask):
+                live = ev.delta < self.pair_d + self.settings.delta
                 band = self.settings.delta + BLOCK_BAND_FRACTION * self.settings.margin
                 self._set_blocks(self._block_mask | live | (ev.delta < self.pair_d + band))
             blocks = self._blocks[self._block_idx]
@@ -298,7 +314,7 @@ class Contact:
 
     def _evaluated_at(self, q) -> _Eval:
         ev = self._last
-        if ev.q is None or ev.q.shape != q.shape or not np.array_equal(ev.q, q):
+        if ev.q is None or ev.q.shape != q.shape or not same_values(ev.q, q):
             scratch = np.zeros(q.shape[0])
             self.evaluate(q, self._q_prev if self._q_prev is not None else q, self._dt, scratch, False)
             ev = self._last
@@ -339,20 +355,29 @@ class Contact:
                 return (f"contact broad phase stale: edges {a} and {b} came within contact range after nodes "
                         f"drifted {dmax:.3g} m since the pair list was built (margin {s.margin:.3g} m)")
         ev = self._evaluated_at(q)
-        self._compute_stats(ev)
+        worst, ratio = self._compute_stats(ev)
         if k:
-            ratio = (self.pair_d - ev.delta) / self.pair_hmin
-            worst = int(np.argmax(ratio))
-            if ratio[worst] > s.penetration_limit:
+            if ratio > s.penetration_limit:
                 if s.stiffness_mode == "adaptive":
                     self.k_c *= PENETRATION_BOOST
                 a, b = self.pairs[worst]
-                return (f"contact penetration {ratio[worst]:.3g} x radius between edges {a} and {b} exceeds "
+                return (f"contact penetration {ratio:.3g} x radius between edges {a} and {b} exceeds "
                         f"penetration_limit {s.penetration_limit}")
             if q_prev is not None:
-                return pass_through(q_prev, q, self.pairs, self.pair_dofs, CROSSING_TOL * self.pair_hmin,
-                                    self.pair_d + s.delta + s.margin)
+                tol, reach = self._swept_tolerances()
+                return pass_through(q_prev, q, self.pairs, self.pair_dofs, tol, reach)
         return None
+
+    def _swept_tolerances(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(tol, reach)`` (k,) m of the swept test of the listed pairs: ``CROSSING_TOL`` times the
+        smaller radius and the list's cut-off ``d + delta + margin`` (kept while the list and the
+        settings stay)."""
+        s = self.settings
+        key = (self.pair_d, s.delta, s.margin)
+        c = self._swept_limits
+        if c is None or c[0][0] is not self.pair_d or c[0][1:] != key[1:]:
+            c = self._swept_limits = (key, CROSSING_TOL * self.pair_hmin, self.pair_d + s.delta + s.margin)
+        return c[1], c[2]
 
     def _swept_outside_list(self, q_prev, q) -> str | None:
         """Pass-through test of the pairs outside the list whose swept boxes (inflated by the
@@ -465,15 +490,16 @@ class Contact:
                          "contact energy has a kink there (see docs/performance.md)")
         return text
 
-    def _compute_stats(self, ev: _Eval) -> None:
+    def _compute_stats(self, ev: _Eval) -> tuple[int, float]:
+        """The numbers of :meth:`stats` for the evaluation ``ev``; returns the pair of largest
+        penetration ratio ``(d - Δ)/h`` and that ratio (``(0, -inf)`` without pairs)."""
         m = self.model
         k = self.pair_dofs.shape[0]
         fmax = 0.0
+        worst, ratio = 0, -math.inf
         if k:
-            gap = ev.delta - self.pair_d
-            n_contacts = int(np.count_nonzero(gap < self.settings.delta))
-            min_gap = float(np.min(gap))
-            pen = float(max(0.0, np.max(-gap / self.pair_hmin)))
+            n_contacts, min_gap, worst, ratio = gap_summary(ev.delta, self.pair_d, self.pair_hmin, self.settings.delta)
+            pen = float(max(0.0, ratio))
             fmax, fc_tot, ff_tot = nodal_force_summary(self.pair_dofs, ev.fc, ev.ff, m.node_dof, m.n_dofs)
         else:
             n_contacts, min_gap, pen, fc_tot, ff_tot = 0, math.nan, 0.0, 0.0, 0.0
@@ -481,6 +507,7 @@ class Contact:
         self._ev_pending = (self.pair_dofs, ev.fc, ev.ff)
         self._stats = {"n_contacts": n_contacts, "min_gap": min_gap, "max_penetration_ratio": pen,
                        "contact_force_total": fc_tot, "friction_force_total": ff_tot, "k_c": float(self.k_c)}
+        return worst, ratio
 
     def stats(self) -> dict:
         """Numbers of the last accepted step: ``n_contacts`` (pairs with ``Δ < d + δ``), ``min_gap``

@@ -13,7 +13,9 @@ integers.
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Iterator, Sequence
+from itertools import repeat
 
 import numpy as np
 
@@ -26,19 +28,24 @@ HOT_ROWS = 256
 _MISSING = object()
 
 
+_BOOL = (bool, np.bool_)
+_NUMBER = (int, float, np.integer, np.floating)
+
+
 def _column(values: list) -> tuple[np.ndarray, np.ndarray | None]:
     """``(array, present)`` of one column of a chunk: ``values`` may contain ``_MISSING``
     (``present`` is then a bool mask, else ``None``). Numbers (and numpy scalars) give a numeric
     array, anything else an object array."""
     present = None
-    if any(v is _MISSING for v in values):
+    if any(map(operator.is_, values, repeat(_MISSING))):
         present = np.array([v is not _MISSING for v in values])
         fill = next(v for v in values if v is not _MISSING)
         values = [fill if v is _MISSING else v for v in values]
-    if all(isinstance(v, bool | np.bool_) for v in values):
+    # decided by the types present (a few), not value by value
+    types = set(map(type, values))
+    if all(issubclass(t, _BOOL) for t in types):
         arr = np.array(values, dtype=bool)
-    elif all(isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool | np.bool_)
-             for v in values):
+    elif all(issubclass(t, _NUMBER) and not issubclass(t, _BOOL) for t in types):
         arr = np.array(values)
         if arr.dtype.kind not in "if":
             arr = np.array(values, dtype=object)
@@ -46,6 +53,20 @@ def _column(values: list) -> tuple[np.ndarray, np.ndarray | None]:
         arr = np.empty(len(values), dtype=object)
         arr[:] = values
     return arr, present
+
+
+def _columns(rows: list[dict]) -> dict[str, tuple[np.ndarray, np.ndarray | None]]:
+    """``{key: _column(...)}`` of ``rows``, keys in order of first appearance."""
+    keys = list(rows[0])
+    if len(keys) > 1 and all(r.keys() == rows[0].keys() for r in rows):
+        # the usual case, every row with the same keys: one pass over the rows, columns by transposing
+        cols = zip(*map(operator.itemgetter(*keys), rows), strict=True)
+        return {key: _column(list(col)) for key, col in zip(keys, cols, strict=True)}
+    order: dict[str, None] = {}
+    for r in rows:
+        for key in r:
+            order.setdefault(key)
+    return {key: _column([r.get(key, _MISSING) for r in rows]) for key in order}
 
 
 def _value(arr: np.ndarray, i: int):
@@ -75,12 +96,8 @@ class StepLog(Sequence):
 
     def _pack(self, k: int) -> None:
         rows, self._hot = self._hot[:k], self._hot[k:]
-        keys: dict[str, None] = {}
-        for r in rows:
-            for key in r:
-                keys.setdefault(key)
-        cols = {key: _column([r.get(key, _MISSING) for r in rows]) for key in keys}
-        for key in keys:
+        cols = _columns(rows)
+        for key in cols:
             self._order.setdefault(key)
         self._chunks.append((len(rows), cols))
         self._n_cold += len(rows)
@@ -124,13 +141,9 @@ class StepLog(Sequence):
         chunks = list(self._chunks)
         order = dict(self._order)
         if self._hot:
-            rows = self._hot
-            keys: dict[str, None] = {}
-            for r in rows:
-                for key in r:
-                    keys.setdefault(key)
-            chunks.append((len(rows), {key: _column([r.get(key, _MISSING) for r in rows]) for key in keys}))
-            for key in keys:
+            cols = _columns(self._hot)
+            chunks.append((len(self._hot), cols))
+            for key in cols:
                 order.setdefault(key)
         if not chunks:
             return pd.DataFrame([])

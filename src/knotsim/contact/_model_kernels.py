@@ -1,0 +1,74 @@
+"""Numba kernels of the per-step bookkeeping of :class:`knotsim.contact.model.Contact`: the gap
+statistics of the candidate pairs, whether a pair in range lacks a Jacobian block, and whether two
+arrays hold the same numbers. Each replaces a handful of numpy calls on small arrays (one
+dispatch instead of several, no temporaries) and gives exactly the numbers those calls gave.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+__all__ = ["gap_summary", "same_values", "unblocked_in_range"]
+
+
+@njit(cache=True)
+def gap_summary(delta, pair_d, pair_hmin, contact_range):
+    """Statistics of the pairs' gaps ``g = Δ − d`` (m).
+
+    ``delta`` (k,) distances Δ (m), ``pair_d`` (k,) contact distances ``d`` (m), ``pair_hmin``
+    (k,) smaller radii (m), ``contact_range`` δ (m). Returns ``(n_contacts, min_gap, worst,
+    max_ratio)``: the number of pairs with ``g < δ``; ``min g`` (NaN if a gap is NaN, as
+    ``numpy.min``; +inf for ``k = 0``); the first pair of largest penetration ratio ``(d − Δ)/h``
+    (the first NaN ratio if there is one, as ``numpy.argmax``) and that ratio (NaN if a ratio is
+    NaN, as ``numpy.max``; -inf for ``k = 0``).
+    """
+    n = 0
+    min_gap = math.inf
+    gap_nan = False
+    worst = 0
+    best = -math.inf
+    ratio_nan = False
+    for i in range(delta.shape[0]):
+        g = delta[i] - pair_d[i]
+        if g < contact_range:
+            n += 1
+        if g != g:
+            gap_nan = True
+        elif g < min_gap:
+            min_gap = g
+        r = (pair_d[i] - delta[i]) / pair_hmin[i]
+        if ratio_nan:
+            continue
+        if r != r:
+            ratio_nan = True
+            worst = i
+            best = r
+        elif r > best or i == 0:
+            worst = i
+            best = r
+    if gap_nan:
+        min_gap = math.nan
+    return n, min_gap, worst, best
+
+
+@njit(cache=True)
+def unblocked_in_range(delta, pair_d, contact_range, has_block):
+    """Whether a pair within range (``Δ < d + δ``, m) has no Jacobian block (``has_block`` (k,)
+    bool): ``numpy.any((delta < pair_d + contact_range) & ~has_block)``."""
+    for i in range(delta.shape[0]):
+        if delta[i] < pair_d[i] + contact_range and not has_block[i]:
+            return True
+    return False
+
+
+@njit(cache=True)
+def same_values(a, b):
+    """``numpy.array_equal(a, b)`` for two (n,) float64 arrays (NaN differs from everything)."""
+    if a.shape[0] != b.shape[0]:
+        return False
+    for i in range(a.shape[0]):
+        if not a[i] == b[i]:
+            return False
+    return True
