@@ -98,3 +98,25 @@ def _pair_energy_no_hessian(p, d, tol, grad, hess, eta):
         return pair_energy(p, d, tol, grad, hess, eta, True, False)
 
     return call(p, d, tol, grad, hess, eta)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_split_max_abs_matches_numpy(seed):
+    from knotsim.solver._kernels import split_max_abs
+
+    rng = np.random.default_rng(seed)
+    n = 1203
+    x = rng.normal(size=n) * 10.0 ** rng.integers(-300, 300, size=n)
+    theta = np.zeros(n, bool)
+    theta[3::4] = True
+    if seed == 1:
+        x[5] = -np.inf
+    if seed == 2:
+        x[:] = 0.0
+        x[7] = -0.0
+    got = split_max_abs(x, theta)
+    assert got == (float(np.max(np.abs(x[~theta]))), float(np.max(np.abs(x[theta]))))
+    y = x.copy()
+    y[rng.integers(n)] = np.nan
+    assert all(np.isnan(v) for v in split_max_abs(y, theta))
+    assert split_max_abs(np.zeros(0), np.zeros(0, bool)) == (0.0, 0.0)
