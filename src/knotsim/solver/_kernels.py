@@ -89,3 +89,25 @@ def all_finite(x):
     for i in range(x.shape[0]):
         bad |= not (abs(x[i]) <= _DBL_MAX)
     return bad == 0
+
+
+@njit(cache=True)
+def same_values(a, b):
+    """Whether the 1-D arrays ``a`` and ``b`` have the same length and equal entries (as
+    ``np.array_equal``; NaN never equals)."""
+    if a.shape[0] != b.shape[0]:
+        return False
+    for i in range(a.shape[0]):
+        if a[i] != b[i]:
+            return False
+    return True
+
+
+@njit(cache=True)
+def predict_positions(q, v, v_prev, ratio, dt, out):
+    """Constant-acceleration guess ``out = q + dt (v + (v - v_prev) ratio)`` (``ratio`` = dt over
+    the previous step's dt; ``v_prev`` unused when ``ratio`` is 0 and ``v_prev`` is ``v``); arrays
+    ``(n_dofs,)``, written in the same operation order as the numpy expression."""
+    for i in range(q.shape[0]):
+        vi = v[i] + (v[i] - v_prev[i]) * ratio
+        out[i] = q[i] + dt * vi

@@ -19,7 +19,15 @@ import numpy as np
 from knotsim.energies.elastic import ElasticEnergy, FrameSource
 from knotsim.errors import ConfigError
 from knotsim.solver import assembly as asm
-from knotsim.solver._kernels import all_finite, free_part, implicit_residual, max_abs, split_max_abs
+from knotsim.solver._kernels import (
+    all_finite,
+    free_part,
+    implicit_residual,
+    max_abs,
+    predict_positions,
+    same_values,
+    split_max_abs,
+)
 from knotsim.solver.linear import BandedSolver, LinearSolveError, SparseSolver
 from knotsim.solver.newton import newton_solve
 from knotsim.solver.state import State
@@ -377,7 +385,7 @@ class Stepper:
             if slots is not None and blocks is not None:
                 asm.csc_add_blocks(data, slots, blocks)
         c = self._constrained
-        if c is None or c[0] != self._pattern_id or not np.array_equal(c[1], fixed):
+        if c is None or c[0] != self._pattern_id or not same_values(c[1], fixed):
             c = self._constrained = (self._pattern_id, fixed.copy(),
                                      *asm.csc_constrained_slots(self._indptr, self._indices, fixed))
         asm.csc_set_slots(data, c[2], c[3])
@@ -437,7 +445,7 @@ class Stepper:
         (transported from ``source``; recomputed, since the last evaluation may have been a
         line-search trial at another point; not when the last evaluation was at ``q`` itself)."""
         last = self._frames_at
-        if last is None or last[1] is not source or not np.array_equal(last[0], q):
+        if last is None or last[1] is not source or not same_values(last[0], q):
             self.elastic.update_frames(q, source)
             self._frames_at = (q.copy(), source)
         state.q = q
@@ -471,7 +479,9 @@ class Stepper:
         h = self._history
         if mode == "acceleration" and h is not None and h[0] == state_in.time and h[1].shape == v.shape:
             # constant acceleration: v_{n+1} ~ v_n + (v_n - v_{n-1}) dt / dt_prev
-            v = v + (v - h[1]) * (dt / h[2])
+            out = np.empty_like(state_in.q)
+            predict_positions(state_in.q, v, h[1], dt / h[2], dt, out)
+            return out
         return state_in.q + dt * v
 
     def step(self, state_in: State, state_out: State, control, dt: float) -> StepResult:
