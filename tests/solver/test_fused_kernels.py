@@ -120,3 +120,29 @@ def test_split_max_abs_matches_numpy(seed):
     y[rng.integers(n)] = np.nan
     assert all(np.isnan(v) for v in split_max_abs(y, theta))
     assert split_max_abs(np.zeros(0), np.zeros(0, bool)) == (0.0, 0.0)
+
+
+def test_predict_positions_is_the_numpy_expression_bitwise():
+    from knotsim.solver._kernels import predict_positions
+
+    rng = np.random.default_rng(4)
+    for _ in range(10):
+        q, v, vp = rng.normal(size=(3, 1203)) * 10.0 ** rng.uniform(-5, 5, size=(3, 1203))
+        dt, ratio = 2.5e-3 * rng.uniform(0.1, 1.0), rng.uniform(0.2, 2.0)
+        out = np.empty(1203)
+        predict_positions(q, v, vp, ratio, dt, out)
+        assert np.array_equal(out, q + dt * (v + (v - vp) * ratio))
+
+
+def test_same_values_is_array_equal():
+    from knotsim.solver._kernels import same_values
+
+    a = np.arange(5.0)
+    assert same_values(a, a.copy())
+    b = a.copy()
+    b[3] = 7.0
+    assert not same_values(a, b)
+    assert not same_values(a, a[:4])
+    assert not same_values(np.array([np.nan]), np.array([np.nan]))
+    m = np.zeros(6, bool)
+    assert same_values(m, m.copy()) and not same_values(m, ~m)
