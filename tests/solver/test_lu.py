@@ -275,19 +275,19 @@ def test_random_patterns_hypothesis(n, density, seed, method, blocks):
     check(A, lu, rng)
 
 
-@pytest.mark.parametrize("w, r", [(1, 3), (3, 5), (4, 0), (6, 7), (8, 15), (8, 25), (16, 40)])
+@pytest.mark.parametrize("w, r", [(1, 3), (3, 5), (4, 0), (6, 7), (8, 25), (13, 9), (16, 40), (32, 40)])
 def test_schur_kernel_matches_dense_product(w, r):
-    """Both paths of the Schur-complement kernel (unrolled loops, BLAS) against numpy, with zero
-    groups of ``L21`` entries (skipped by the loops)."""
+    """Every path of the Schur-complement kernel (groups of 8, 4 and 1 pivots; BLAS for the
+    largest) against numpy, with zero ``L21`` entries."""
     from knotsim.solver.lu.numeric import _GEMM_MIN, _schur
 
     rng = np.random.default_rng(w * 100 + r)
     m = w + r
     F = rng.standard_normal((m, m))
     L = rng.standard_normal((w, m))
-    L[: min(w, 4), w::3] = 0.0
+    L[:, w::3] = 0.0
     S = np.full((r, r), np.nan)
     _schur(F, L, S, w, r, np.empty(3 * m * m))
     expect = F[w:, w:] - L[:, w:].T @ F[:w, w:]
     assert np.allclose(S, expect, rtol=1e-13, atol=1e-13)
-    assert (r * r * w >= _GEMM_MIN) == (r >= 15)
+    assert (r * r * w >= _GEMM_MIN) == (w == 32)

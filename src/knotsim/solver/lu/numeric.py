@@ -33,9 +33,10 @@ def column_max_abs(data, colof, cnorm):
 
 
 _FM = {"nsz", "arcp", "contract", "reassoc"}  # fastmath without no-NaN/no-Inf (pivot checks need them)
-#: Schur complements with (m-w)^2 * w >= this use BLAS dgemm (on the N = 301 knot's Jacobians as
-#: fast as the unrolled loops; 2.5x faster than them for a (232, 232) front with w = 32)
-_GEMM_MIN = 1024
+#: Schur complements with (m-w)^2 * w >= this use BLAS dgemm; measured crossover with the loops of
+#: :func:`_schur`: w = 16, m - w = 45 to 64 and w = 32, m - w = 32 (below it the loops are up to
+#: 30 % faster, e.g. for the w = 8 fronts of the N = 301 knot)
+_GEMM_MIN = 1 << 15
 
 # Loop style of the kernels below: inner loops run ``for j in range(n)`` over 2-D views (``F[i, k + j]``)
 # so that LLVM vectorises them; flat indexing with computed offsets (``front[i * m + j]``) and 1-D
@@ -47,9 +48,10 @@ def _schur(F, L, S, w, r, gbuf):
     """``S = F22 - L21 U12`` for the front ``F`` ``(m, m)`` with ``m = w + r`` pivots eliminated.
 
     ``F[:w, w:]`` is ``U12`` ``(w, r)``, ``F[w:, w:]`` is ``F22``, ``L`` ``(w, m)`` holds ``L21``
-    transposed in ``L[:, w:]``; ``S`` ``(r, r)`` output (the caller's stack slot). Large updates use
-    BLAS ``dgemm`` with ``gbuf`` as contiguous scratch, small ones loops that take four pivots
-    per pass over a row of ``S`` (four times fewer loads and stores of ``S``).
+    transposed in ``L[:, w:]``; ``S`` ``(r, r)`` output (the caller's stack slot); ``gbuf``
+    scratch of at least ``2 r w + r^2`` floats. Large updates use BLAS ``dgemm``; the others take
+    eight pivots per pass over a row of ``S`` (their rows of ``U12`` copied to contiguous scratch,
+    so the pass vectorises), then four, then one.
     """
     if r * r * w >= _GEMM_MIN:
         L21 = gbuf[: r * w].reshape((r, w))
@@ -65,27 +67,53 @@ def _schur(F, L, S, w, r, gbuf):
             for b in range(r):
                 S[a, b] = F[w + a, w + b] - T[a, b]
         return
-    for a in range(r):
-        for b in range(r):
-            S[a, b] = F[w + a, w + b]
-        k = 0
-        while k + 4 <= w:
+    k = 0
+    if w < 8:
+        for a in range(r):
+            for b in range(r):
+                S[a, b] = F[w + a, w + b]
+    U = gbuf[: 8 * r].reshape((8, r))
+    while k + 8 <= w:
+        for i in range(8):
+            for b in range(r):
+                U[i, b] = F[k + i, w + b]
+        for a in range(r):
             l0 = L[k, w + a]
             l1 = L[k + 1, w + a]
             l2 = L[k + 2, w + a]
             l3 = L[k + 3, w + a]
-            if l0 != 0.0 or l1 != 0.0 or l2 != 0.0 or l3 != 0.0:
+            l4 = L[k + 4, w + a]
+            l5 = L[k + 5, w + a]
+            l6 = L[k + 6, w + a]
+            l7 = L[k + 7, w + a]
+            if k == 0:
                 for b in range(r):
-                    S[a, b] -= (l0 * F[k, w + b] + l1 * F[k + 1, w + b]) + (
-                        l2 * F[k + 2, w + b] + l3 * F[k + 3, w + b]
+                    S[a, b] = F[w + a, w + b] - (
+                        ((l0 * U[0, b] + l1 * U[1, b]) + (l2 * U[2, b] + l3 * U[3, b]))
+                        + ((l4 * U[4, b] + l5 * U[5, b]) + (l6 * U[6, b] + l7 * U[7, b]))
                     )
-            k += 4
-        while k < w:
+            else:
+                for b in range(r):
+                    S[a, b] -= ((l0 * U[0, b] + l1 * U[1, b]) + (l2 * U[2, b] + l3 * U[3, b])) + (
+                        (l4 * U[4, b] + l5 * U[5, b]) + (l6 * U[6, b] + l7 * U[7, b])
+                    )
+        k += 8
+    if k + 4 <= w:
+        for a in range(r):
+            l0 = L[k, w + a]
+            l1 = L[k + 1, w + a]
+            l2 = L[k + 2, w + a]
+            l3 = L[k + 3, w + a]
+            for b in range(r):
+                S[a, b] -= (l0 * F[k, w + b] + l1 * F[k + 1, w + b]) + (l2 * F[k + 2, w + b] + l3 * F[k + 3, w + b])
+        k += 4
+    while k < w:
+        for a in range(r):
             lak = L[k, w + a]
             if lak != 0.0:
                 for b in range(r):
                     S[a, b] -= lak * F[k, w + b]
-            k += 1
+        k += 1
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy")
