@@ -183,7 +183,7 @@ def _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, r
             cuts_total += cuts
         if (cuts and not reuse_jacobian) or (reuse_jacobian and (cuts or rn_try > reuse_ratio * rn)):
             r_try, rn_try = trial(q_try, True)  # fresh Jacobian at the accepted point
-        step = system.step_norm(a * dq)
+        step = system.step_norm(dq if a == 1.0 else a * dq)
         q, r, rn = q_try, r_try, rn_try
     return NewtonResult(q, False, max_iterations, rn, step, cuts_total,
                         f"no convergence in {max_iterations} iterations (residual {rn:.3g} x tolerance)")

@@ -225,6 +225,11 @@ class FixedPatternLU:
         ``rhs`` ``(n,)`` or ``(n, m)``; ``out`` optional output of the same shape (may be ``rhs``
         itself for an in-place solve). Returns ``x`` with the shape of ``rhs``.
         """
+        if (out is None and self.factorized and type(rhs) is np.ndarray and rhs.dtype == np.float64
+                and rhs.shape == (self.n,)):  # the common case, without the general checks
+            out = np.empty(self.n)
+            mf_solve(self.perm, self._sf, self._rp, self._ri, self._poff, self._PL, self._PU, rhs, out, self._y)
+            return out
         b, out = self._rhs_and_out(rhs, out)
         factors = (self.perm, self._sf, self._rp, self._ri, self._poff, self._PL, self._PU)
         if b.ndim == 1:
