@@ -114,3 +114,57 @@ def test_group_plan_follows_replaced_nodes():
     assert d2.tolist() == [*xyz.tolist(), *model.edge_theta_dof[g.edges].tolist()]
     assert d1.size == 6 + 1 and d2.size == 9 + 2
     assert np.allclose(v2[:9], q[xyz] + np.tile([1e-6, 0.0, 0.0], 3))
+
+
+def _values_reference(bcs, t, q_in, t_in):
+    """The prescribed unknowns and values as the array code (``_prescribed_values``) gives them."""
+    m = bcs.model
+    dofs, vals = [], []
+    for g in bcs.groups.values():
+        if not (g.prescribed and g.active(t)):
+            continue
+        xyz = m.node_dof[g.nodes][:, None] + np.arange(3)[None, :]
+        pos, th = bcs._prescribed_values(g, t, q_in, t_in)
+        dofs.append(xyz[:, g.axes].ravel())
+        vals.append(pos[:, g.axes].ravel())
+        if th is not None:
+            dofs.append(m.edge_theta_dof[g.edges])
+            vals.append(np.asarray(th, float))
+    return np.concatenate(dofs), np.concatenate(vals)
+
+
+def test_evaluate_matches_the_array_code_bitwise():
+    from knotsim.bc.paths import RampedVelocity
+
+    model = _model(60)
+    bcs = BoundaryConditions(model)
+    bcs.clamp("left", nodes=[0, 1])
+    bcs.move("ramp", nodes=[5, 6], path=RampedVelocity([3e-3, -1e-3, 2e-3], 0.4), stop=50.0)
+    bcs.move("way", nodes=[10, 11, 12], path=Waypoints([0.0, 0.3, 0.9], [[0, 0, 0], [1e-3, 2e-3, -1e-3],
+                                                                        [2e-3, 1e-3, 0.0]],
+                                                       then_velocity=[-6e-3, 1e-3, 3e-3]))
+    bcs.move("func", nodes=[15], path=lambda e: [np.sin(e) * 1e-3, e * e * 1e-4, 0.1 + 0.0 * e], twist=False,
+             start=0.2)
+    bcs.pin("roller", nodes=[20, 21], axes="xz", twist=True)
+    bcs.hold("held", nodes=[25], start=0.1, stop=0.6)
+    bcs.rotate("spin", nodes=[30, 31], rate=2.0)
+    bcs.move("turn", nodes=[40, 41, 42], path=[1e-3, 0.0, 0.0], rotation={"axis": [0, 0, 1], "rate": 0.5})
+    bcs.move("right", nodes=[-2, -1], path=Waypoints([0.0, 0.5], [[0, 0, 0], [0, 0, 0]],
+                                                    then_velocity=[6e-3, 0.0, 0.0]))
+    rng = np.random.default_rng(5)
+    q = bcs.initial_q() + 1e-4 * rng.standard_normal(model.n_dofs)
+    t_in, dt, seen = 0.0, 0.0125, 0
+    while t_in < 1.3:
+        t = t_in + dt
+        d, v, _ = bcs.evaluate(t, q, t_in)
+        rd, rv = _values_reference(bcs, t, q, t_in)
+        assert d.dtype == np.int64 and v.dtype == np.float64
+        assert d.tolist() == rd.tolist() and v.tobytes() == rv.tobytes(), t
+        assert not d.flags.writeable
+        seen = max(seen, d.size)
+        q = q.copy()
+        q[d] = v
+        t_in = t
+    # every group at once (held while 0.1 <= t < 0.6): 3 x 16 node coordinates + 2 x 2 of the roller's,
+    # 9 edge angles
+    assert seen == 3 * 16 + 4 + 9

@@ -20,6 +20,7 @@ reported after each step: it is the pull force of knot tests.
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -85,7 +86,7 @@ class _Plan:
     ``xyz`` (3, n) int64 (row ``c``: coordinate ``c`` of the ``n`` nodes), ``pos_dofs`` (3 n,) node
     by node, ``fixed_pos_dofs`` those of ``axes``, ``theta_dofs`` (e,) the edge angles."""
 
-    __slots__ = ("all_axes", "axes", "edges", "fixed_pos_dofs", "nodes", "pos_dofs", "theta_dofs", "xyz")
+    __slots__ = ("axes", "axes_idx", "edges", "fixed_pos_dofs", "nodes", "pos_dofs", "theta_dofs", "xyz")
 
     def __init__(self, model, g: Group):
         self.nodes, self.edges, self.axes = g.nodes, g.edges, g.axes
@@ -93,7 +94,8 @@ class _Plan:
         self.xyz = np.ascontiguousarray(xyz.T, dtype=np.int64)
         self.pos_dofs = xyz.ravel()
         self.fixed_pos_dofs = xyz[:, g.axes].ravel()
-        self.all_axes = bool(np.all(g.axes))
+        #: the prescribed coordinates (indices), ``None`` for all three
+        self.axes_idx = None if bool(np.all(g.axes)) else tuple(int(k) for k in np.flatnonzero(g.axes))
         self.theta_dofs = np.ascontiguousarray(model.edge_theta_dof[g.edges], dtype=np.int64)
 
 
@@ -114,6 +116,7 @@ class BoundaryConditions(GripMethods):
         self.log_values: dict[str, float] = {}
         self._interaction = None
         self._interaction_seen = False
+        self._dofs_cache = None
 
     # ------------------------------------------------------------------ building
     def _check_name(self, name: str) -> None:
@@ -349,7 +352,7 @@ class BoundaryConditions(GripMethods):
         """
         m = self.model
         dofs: list[np.ndarray] = []
-        vals: list[np.ndarray] = []
+        vals: list[float] = []
         f_ext = np.zeros(m.n_dofs)
         self._interaction_seen = False
         self._set_ring_twist(t)
@@ -367,25 +370,33 @@ class BoundaryConditions(GripMethods):
                     g.anchor_theta = q_in[plan.theta_dofs].copy()
                     g.anchor_time = t_in
                     self._activated(g)
-                pos, th = self._prescribed_values(g, t, q_in, t_in)
                 dofs.append(plan.fixed_pos_dofs)
-                vals.append(pos.ravel() if plan.all_axes else pos[:, g.axes].ravel())
-                if th is not None:
+                angles = self._translated_values(g, t, plan.axes_idx, vals)  # floats, the common case
+                if angles is None:
+                    pos, th = self._prescribed_values(g, t, q_in, t_in)
+                    vals += (pos.ravel() if plan.axes_idx is None else pos[:, g.axes].ravel()).tolist()
+                    angles = th is not None
+                    if angles:
+                        vals += np.asarray(th, float).ravel().tolist()
+                if angles:
                     dofs.append(plan.theta_dofs)
-                    vals.append(np.asarray(th, float))
             elif g.kind == "force":
                 f = g.load(t - g.start) / len(g.nodes)
                 for k in range(3):
                     f_ext[m.node_dof[g.nodes] + k] += f[k]
             elif g.kind == "moment":
                 f_ext[m.edge_theta_dof[g.edges]] += g.load(t - g.start)
-        if dofs:
-            d = np.concatenate(dofs)
-            v = np.concatenate(vals)
-        else:
-            d = np.zeros(0, np.int64)
-            v = np.zeros(0)
-        return d, v, f_ext
+        return self._fixed_dofs(dofs), np.array(vals, dtype=float), f_ext
+
+    def _fixed_dofs(self, parts: list[np.ndarray]) -> np.ndarray:
+        """``concatenate(parts)`` (int64), the same read-only array while the parts are the same
+        arrays (the groups' cached unknowns: the same from step to step)."""
+        c = self._dofs_cache
+        if c is None or len(c[0]) != len(parts) or not all(map(operator.is_, c[0], parts)):
+            d = np.concatenate(parts).astype(np.int64, copy=False) if parts else np.zeros(0, np.int64)
+            d.flags.writeable = False
+            c = self._dofs_cache = (parts, d)
+        return c[1]
 
     def reactions(self, t: float, residual: np.ndarray) -> dict[str, np.ndarray]:
         """Reaction of every prescribed group active at ``t``: ``{name: (fx, fy, fz, moment)}``.

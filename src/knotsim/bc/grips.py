@@ -191,6 +191,37 @@ class GripMethods:
         disp = g.path(t - g.start) - g.path(max(g.anchor_time - g.start, 0.0))
         g.target = g.anchor + disp[None, :]
 
+    def _translated_values(self, g, t: float, axes: tuple | None, vals: list) -> bool | None:
+        """For a group that only translates (no rotation, load cell or twist rate): append the
+        values it prescribes at ``t`` (s) to ``vals`` as floats, the coordinates ``axes`` (indices,
+        ``None`` for all three) of every node (m), then its edge angles (rad) when it fixes them;
+        return whether it did append angles. ``None`` (nothing appended) for other groups and for
+        paths without :meth:`~knotsim.bc.paths.Path.components`. The same numbers as
+        :meth:`_prescribed_values`."""
+        twist = g.fix_twist and g.edges.size
+        if g.rotation is not None or g.cell is not None or (twist and g.twist_angle is not None):
+            return None
+        if g.path is None:
+            dx = dy = dz = 0.0
+        else:
+            e0 = max(g.anchor_time - g.start, 0.0)
+            a = g.path.components(t - g.start)
+            b = g.path.components(e0) if a is not None else None
+            if b is None:
+                return None
+            dx, dy, dz = a[0] - b[0], a[1] - b[1], a[2] - b[2]
+        if axes is None:
+            for x, y, z in g.anchor.tolist():
+                vals += (x + dx, y + dy, z + dz)
+        else:
+            for row in g.anchor.tolist():
+                p = (row[0] + dx, row[1] + dy, row[2] + dz)
+                vals += [p[k] for k in axes]
+        if twist:
+            vals += g.anchor_theta.tolist()
+            return True
+        return False
+
     def _prescribed_values(self, g, t: float, q_in: np.ndarray, t_in: float):
         """Positions ``(n, 3)`` and edge angles (or ``None``) a prescribed group imposes at ``t``."""
         e0 = max(g.anchor_time - g.start, 0.0)

@@ -31,6 +31,12 @@ class Path:
     def __call__(self, elapsed: float) -> np.ndarray:
         return self.displacement(elapsed)
 
+    def components(self, elapsed: float) -> tuple[float, float, float] | None:
+        """:meth:`displacement` as three floats (m), the same numbers, without an array (the
+        per-step path of :class:`~knotsim.bc.BoundaryConditions`); ``None`` when the path does not
+        say (then the array is used)."""
+        return None
+
 
 class ConstantVelocity(Path):
     """Translation at a constant velocity ``velocity (3,)`` m/s."""
@@ -43,6 +49,10 @@ class ConstantVelocity(Path):
 
     def displacement(self, elapsed: float) -> np.ndarray:
         return self.velocity * elapsed
+
+    def components(self, elapsed: float) -> tuple[float, float, float]:
+        vx, vy, vz = self.velocity.tolist()
+        return vx * elapsed, vy * elapsed, vz * elapsed
 
     def __repr__(self) -> str:
         return f"ConstantVelocity({self.velocity.tolist()})"
@@ -68,6 +78,12 @@ class RampedVelocity(Path):
         if e < self.ramp_time:
             return self.velocity * (e * e / (2.0 * self.ramp_time))
         return self.velocity * (e - 0.5 * self.ramp_time)
+
+    def components(self, elapsed: float) -> tuple[float, float, float]:
+        e = max(float(elapsed), 0.0)
+        s = e * e / (2.0 * self.ramp_time) if e < self.ramp_time else e - 0.5 * self.ramp_time
+        vx, vy, vz = self.velocity.tolist()
+        return vx * s, vy * s, vz * s
 
     def __repr__(self) -> str:
         return f"RampedVelocity({self.velocity.tolist()}, ramp_time={self.ramp_time})"
@@ -163,6 +179,17 @@ class Waypoints(Path):
             out += self.then_velocity * (elapsed - self.times[-1])
         return out - self.points[0]
 
+    def components(self, elapsed: float) -> tuple[float, float, float]:
+        t_last = float(self.times[-1])
+        if not elapsed >= t_last or self.from_current:
+            return tuple(self.displacement(elapsed).tolist())
+        (x, y, z), (x0, y0, z0) = self.points[-1].tolist(), self.points[0].tolist()
+        if self.then_velocity is None or not elapsed > t_last:
+            return x - x0, y - y0, z - z0
+        e = elapsed - t_last
+        vx, vy, vz = self.then_velocity.tolist()
+        return (x + vx * e) - x0, (y + vy * e) - y0, (z + vz * e) - z0
+
 
 class FunctionPath(Path):
     """Any Python callable ``f(elapsed) -> (3,)`` displacement in m (``f(0)`` is subtracted)."""
@@ -184,6 +211,9 @@ class FunctionPath(Path):
 
     def displacement(self, elapsed: float) -> np.ndarray:
         return self._eval(elapsed) - self._origin
+
+    def components(self, elapsed: float) -> tuple[float, float, float]:
+        return tuple(self.displacement(elapsed).tolist())
 
 
 def as_path(value) -> Path:
