@@ -76,28 +76,6 @@ def hessian_to_stencil(Hz, scale, out, W, accumulate=False):
 
 
 @njit(inline="always", cache=True)
-def add_edge_blocks(out, A, B, C):
-    """``out (11, 11) += T^T Hz T`` for an ``Hz`` with only edge-edge blocks: ``A`` (e-e), ``B``
-    (e-f), ``B^T`` (f-e) and ``C`` (f-f), each ``(3, 3)``; the nine ``3 x 3`` position blocks
-    of the stencil."""
-    for p in range(3):
-        for k in range(3):
-            a = A[p, k]
-            b = B[p, k]
-            bt = B[k, p]
-            c = C[p, k]
-            out[p, k] += a
-            out[p, 4 + k] += b - a
-            out[p, 8 + k] -= b
-            out[4 + p, k] += bt - a
-            out[4 + p, 4 + k] += (a + c) - (b + bt)
-            out[4 + p, 8 + k] += b - c
-            out[8 + p, k] -= bt
-            out[8 + p, 4 + k] += bt - c
-            out[8 + p, 8 + k] += c
-
-
-@njit(inline="always", cache=True)
 def stencil_geometry(bend_edges, tangents, lengths, s):
     """Geometry of stencil ``s``: ``(e, f, t_e, t_f, |e|, |f|, chi, t~, kb)`` with
     ``chi = 1 + t_e . t_f``, ``t~ = (t_e + t_f)/chi`` and the curvature binormal

@@ -97,60 +97,125 @@ def _add_curvature_hessians(Hz, kap, dv, me, mf, te, tf, n0, n1, chi, t0, t1, tt
 
 
 @njit(cache=True)
-def bending_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2, EI, voronoi, kappa_bar,
-                   grad, hess, want_hessian, kappa_out):
+def bending_twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2, ref_twist, EI, GJ, voronoi,
+                            kappa_bar, twist_bar, grad, hess, want_hessian, kappa_out, twist_out,
+                            bend=True, twist=True, accumulate=False):
+    """Bending and/or twisting energy of every stencil in one pass: ``(E_bend, E_twist)`` (J).
+
+    Arguments as :func:`bending_energy` and :func:`~knotsim.energies.twisting.twisting_energy`
+    (``ref_twist (nb,)`` rad, ``GJ (nb,)`` N m^2, ``twist_bar (nb,)`` rad, ``twist_out (nb,)``
+    receives the integrated twist). ``bend``/``twist`` select the terms (the arrays of an
+    unselected term are not read and may be empty). Both terms share the stencil geometry, one
+    gradient scatter and one ``T^T Hz T`` map of the summed edge-variable Hessians; the blocks
+    are written into ``hess (nb, 11, 11)`` (added to it when ``accumulate``).
+    """
     nb = bend_dofs.shape[0]
     g1 = np.zeros(8)
     g2 = np.zeros(8)
     gz = np.zeros(8)
     Hz = np.zeros((8, 8))
     W = np.zeros((8, 11))
-    energy = 0.0
+    e_bend = 0.0
+    e_twist = 0.0
     for s in range(nb):
         e, f, t0, t1, n0, n1, chi, tt, kb = stencil_geometry(bend_edges, tangents, lengths, s)
-        m1e = (m1[e, 0], m1[e, 1], m1[e, 2])
-        m2e = (m2[e, 0], m2[e, 1], m2[e, 2])
-        m1f = (m1[f, 0], m1[f, 1], m1[f, 2])
-        m2f = (m2[f, 0], m2[f, 1], m2[f, 2])
-        d1t = v3.scale(1.0 / chi, v3.add(m1e, m1f))
-        d2t = v3.scale(1.0 / chi, v3.add(m2e, m2f))
-        k1 = 0.5 * v3.dot(kb, v3.add(m2e, m2f))
-        k2 = -0.5 * v3.dot(kb, v3.add(m1e, m1f))
-        kappa_out[s, 0] = k1
-        kappa_out[s, 1] = k2
-        dk1 = k1 - kappa_bar[s, 0]
-        dk2 = k2 - kappa_bar[s, 1]
-        coef = EI[s] / voronoi[s]
-        energy += 0.5 * coef * (dk1 * dk1 + dk2 * dk2)
-
-        # gradients of kappa1, kappa2 in edge variables (e, theta_e, f, theta_f)
-        a = v3.cross(t1, d2t)
-        b = v3.cross(t0, d2t)
-        c = v3.cross(t1, d1t)
-        d = v3.cross(t0, d1t)
-        for p in range(3):
-            g1[p] = (-k1 * tt[p] + a[p]) / n0
-            g1[4 + p] = (-k1 * tt[p] - b[p]) / n1
-            g2[p] = (-k2 * tt[p] - c[p]) / n0
-            g2[4 + p] = (-k2 * tt[p] + d[p]) / n1
-        g1[3] = -0.5 * v3.dot(kb, m1e)
-        g1[7] = -0.5 * v3.dot(kb, m1f)
-        g2[3] = -0.5 * v3.dot(kb, m2e)
-        g2[7] = -0.5 * v3.dot(kb, m2f)
-        for p in range(8):
-            gz[p] = dk1 * g1[p] + dk2 * g2[p]
-        scatter_gradient(gz, coef, bend_dofs[s], grad)
-
         if want_hessian:
             for i in range(8):
                 for j in range(8):
-                    Hz[i, j] = g1[i] * g1[j] + g2[i] * g2[j]
-            kap = dk1 * k1 + dk2 * k2
-            dv = v3.sub(v3.scale(dk1, d2t), v3.scale(dk2, d1t))
-            me = v3.sub(v3.scale(dk1, m2e), v3.scale(dk2, m1e))
-            mf = v3.sub(v3.scale(dk1, m2f), v3.scale(dk2, m1f))
-            te = v3.add(v3.scale(dk1, m1e), v3.scale(dk2, m2e))
-            tf = v3.add(v3.scale(dk1, m1f), v3.scale(dk2, m2f))
-            _add_curvature_hessians(Hz, kap, dv, me, mf, te, tf, n0, n1, chi, t0, t1, tt, kb)
-            hessian_to_stencil(Hz, coef, hess[s], W)
-    return energy
+                    Hz[i, j] = 0.0
+        for p in range(8):
+            gz[p] = 0.0
+        if bend:
+            m1e = (m1[e, 0], m1[e, 1], m1[e, 2])
+            m2e = (m2[e, 0], m2[e, 1], m2[e, 2])
+            m1f = (m1[f, 0], m1[f, 1], m1[f, 2])
+            m2f = (m2[f, 0], m2[f, 1], m2[f, 2])
+            d1t = v3.scale(1.0 / chi, v3.add(m1e, m1f))
+            d2t = v3.scale(1.0 / chi, v3.add(m2e, m2f))
+            k1 = 0.5 * v3.dot(kb, v3.add(m2e, m2f))
+            k2 = -0.5 * v3.dot(kb, v3.add(m1e, m1f))
+            kappa_out[s, 0] = k1
+            kappa_out[s, 1] = k2
+            dk1 = k1 - kappa_bar[s, 0]
+            dk2 = k2 - kappa_bar[s, 1]
+            cb = EI[s] / voronoi[s]
+            e_bend += 0.5 * cb * (dk1 * dk1 + dk2 * dk2)
+            # gradients of kappa1, kappa2 in edge variables (e, theta_e, f, theta_f)
+            a = v3.cross(t1, d2t)
+            b = v3.cross(t0, d2t)
+            c = v3.cross(t1, d1t)
+            d = v3.cross(t0, d1t)
+            for p in range(3):
+                g1[p] = (-k1 * tt[p] + a[p]) / n0
+                g1[4 + p] = (-k1 * tt[p] - b[p]) / n1
+                g2[p] = (-k2 * tt[p] - c[p]) / n0
+                g2[4 + p] = (-k2 * tt[p] + d[p]) / n1
+            g1[3] = -0.5 * v3.dot(kb, m1e)
+            g1[7] = -0.5 * v3.dot(kb, m1f)
+            g2[3] = -0.5 * v3.dot(kb, m2e)
+            g2[7] = -0.5 * v3.dot(kb, m2f)
+            for p in range(8):
+                gz[p] = cb * (dk1 * g1[p] + dk2 * g2[p])
+            if want_hessian:
+                for i in range(8):
+                    for j in range(8):
+                        Hz[i, j] = g1[i] * g1[j] + g2[i] * g2[j]
+                kap = dk1 * k1 + dk2 * k2
+                dv = v3.sub(v3.scale(dk1, d2t), v3.scale(dk2, d1t))
+                me = v3.sub(v3.scale(dk1, m2e), v3.scale(dk2, m1e))
+                mf = v3.sub(v3.scale(dk1, m2f), v3.scale(dk2, m1f))
+                te = v3.add(v3.scale(dk1, m1e), v3.scale(dk2, m2e))
+                tf = v3.add(v3.scale(dk1, m1f), v3.scale(dk2, m2f))
+                _add_curvature_hessians(Hz, kap, dv, me, mf, te, tf, n0, n1, chi, t0, t1, tt, kb)
+                for i in range(8):
+                    for j in range(8):
+                        Hz[i, j] *= cb
+        if twist:
+            # m = theta_f - theta_e + reference twist; dm/de = kb / (2 |e|), dm/df = kb / (2 |f|)
+            mt = q[bend_dofs[s, 7]] - q[bend_dofs[s, 3]] + ref_twist[s]
+            twist_out[s] = mt
+            dm = mt - twist_bar[s]
+            ct = GJ[s] / voronoi[s]
+            e_twist += 0.5 * ct * dm * dm
+            for p in range(3):
+                g1[p] = 0.5 * kb[p] / n0
+                g1[4 + p] = 0.5 * kb[p] / n1
+            g1[3] = -1.0
+            g1[7] = 1.0
+            for p in range(8):
+                gz[p] += ct * dm * g1[p]
+            if want_hessian:
+                # ct * (gm gm^T + dm * Hessian of the reference twist)
+                for i in range(8):
+                    ci = ct * g1[i]
+                    for j in range(8):
+                        Hz[i, j] += ci * g1[j]
+                a = v3.add(t0, tt)
+                b = v3.add(t1, tt)
+                s0 = -0.25 * ct * dm / (n0 * n0)
+                s1 = -0.25 * ct * dm / (n1 * n1)
+                s2 = 0.5 * ct * dm / (n0 * n1)
+                for p in range(3):
+                    for k in range(3):
+                        Hz[p, k] += s0 * (kb[p] * a[k] + a[p] * kb[k])
+                        Hz[4 + p, 4 + k] += s1 * (kb[p] * b[k] + b[p] * kb[k])
+                        # e-f block (2/chi [t0]_x - kb t~^T) dm / (2 n0 n1); f-e is its transpose
+                        v = -s2 * kb[p] * tt[k]
+                        Hz[p, 4 + k] += v
+                        Hz[4 + k, p] += v
+                v3.skew_add(Hz, 0, 4, s2 * 2.0 / chi, t0)
+                v3.skew_add(Hz, 4, 0, -s2 * 2.0 / chi, t0)
+        scatter_gradient(gz, 1.0, bend_dofs[s], grad)
+        if want_hessian:
+            hessian_to_stencil(Hz, 1.0, hess[s], W, accumulate)
+    return e_bend, e_twist
+
+
+@njit(cache=True)
+def bending_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2, EI, voronoi, kappa_bar,
+                   grad, hess, want_hessian, kappa_out):
+    """Bending only (see the module docstring): :func:`bending_twisting_energy` with ``twist=False``."""
+    none = np.empty(0)
+    eb, _ = bending_twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2, none, EI, none, voronoi,
+                                    kappa_bar, none, grad, hess, want_hessian, kappa_out, none, True, False, False)
+    return eb
