@@ -168,3 +168,18 @@ def test_evaluate_matches_the_array_code_bitwise():
     # every group at once (held while 0.1 <= t < 0.6): 3 x 16 node coordinates + 2 x 2 of the roller's,
     # 9 edge angles
     assert seen == 3 * 16 + 4 + 9
+
+
+def test_path_components_are_the_displacement_bitwise():
+    from knotsim.bc.paths import ConstantVelocity, FunctionPath, Path, RampedVelocity
+
+    paths = [ConstantVelocity([6e-3, -1e-3, 2.5e-3]), RampedVelocity([3e-3, 1e-3, -2e-3], 0.37),
+             Waypoints([0.0, 0.7, 2.0], [[0, 0, 0], [1e-3, -2e-3, 5e-4], [3.3e-3, 0.1, -7e-4]]),
+             Waypoints([0.0, 2.0], [[0.1, 0.2, 0.3], [0.2, 0.1, 0.0]], absolute=True, then_velocity=[1e-3, 0, 2e-3]),
+             Waypoints([0.0], [[0.0, 0.0, 0.0]], then_velocity=[-6e-3, 0.0, 0.0]),
+             FunctionPath(lambda e: [np.cos(e), e**3, 0.5])]
+    for p in paths:
+        for e in (0.0, 1e-9, 0.2, 0.37, 0.7, 1.3, 2.0, 2.0 + 1e-12, 3.75, 61.9975):
+            c = p.components(e)
+            assert type(c[0]) is float and np.array(c).tobytes() == p.displacement(e).tobytes(), (p, e)
+    assert Path().components(1.0) is None

@@ -181,9 +181,12 @@ class Waypoints(Path):
 
     def components(self, elapsed: float) -> tuple[float, float, float]:
         t_last = float(self.times[-1])
-        if not elapsed >= t_last or self.from_current:
+        if self.from_current or not (elapsed >= t_last or elapsed <= self.times[0]):
             return tuple(self.displacement(elapsed).tolist())
-        (x, y, z), (x0, y0, z0) = self.points[-1].tolist(), self.points[0].tolist()
+        x0, y0, z0 = self.points[0].tolist()
+        if not elapsed >= t_last:  # at or before the first time
+            return x0 - x0, y0 - y0, z0 - z0
+        x, y, z = self.points[-1].tolist()
         if self.then_velocity is None or not elapsed > t_last:
             return x - x0, y - y0, z - z0
         e = elapsed - t_last

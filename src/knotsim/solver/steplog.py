@@ -32,12 +32,12 @@ _BOOL = (bool, np.bool_)
 _NUMBER = (int, float, np.integer, np.floating)
 
 
-def _column(values: list) -> tuple[np.ndarray, np.ndarray | None]:
+def _column(values: list, complete: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
     """``(array, present)`` of one column of a chunk: ``values`` may contain ``_MISSING``
-    (``present`` is then a bool mask, else ``None``). Numbers (and numpy scalars) give a numeric
-    array, anything else an object array."""
+    (``present`` is then a bool mask, else ``None``; ``complete``: the caller knows it does not).
+    Numbers (and numpy scalars) give a numeric array, anything else an object array."""
     present = None
-    if any(map(operator.is_, values, repeat(_MISSING))):
+    if not complete and any(map(operator.is_, values, repeat(_MISSING))):
         present = np.array([v is not _MISSING for v in values])
         fill = next(v for v in values if v is not _MISSING)
         values = [fill if v is _MISSING else v for v in values]
@@ -61,7 +61,7 @@ def _columns(rows: list[dict]) -> dict[str, tuple[np.ndarray, np.ndarray | None]
     if len(keys) > 1 and all(r.keys() == rows[0].keys() for r in rows):
         # the usual case, every row with the same keys: one pass over the rows, columns by transposing
         cols = zip(*map(operator.itemgetter(*keys), rows), strict=True)
-        return {key: _column(list(col)) for key, col in zip(keys, cols, strict=True)}
+        return {key: _column(list(col), complete=True) for key, col in zip(keys, cols, strict=True)}
     order: dict[str, None] = {}
     for r in rows:
         for key in r:
