@@ -277,7 +277,7 @@ def test_random_patterns_hypothesis(n, density, seed, method, blocks):
 
 @pytest.mark.parametrize("w, r", [(1, 3), (3, 5), (4, 0), (6, 7), (8, 25), (13, 9), (16, 40), (32, 40)])
 def test_schur_kernel_matches_dense_product(w, r):
-    """Every path of the Schur-complement kernel (groups of 8, 4 and 1 pivots; BLAS for the
+    """Every path of the Schur-complement kernel (groups of 8 pivots, single pivots, BLAS for the
     largest) against numpy, with zero ``L21`` entries."""
     from knotsim.solver.lu.numeric import _GEMM_MIN, _schur
 

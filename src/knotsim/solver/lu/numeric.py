@@ -51,7 +51,7 @@ def _schur(F, L, S, w, r, gbuf):
     transposed in ``L[:, w:]``; ``S`` ``(r, r)`` output (the caller's stack slot); ``gbuf``
     scratch of at least ``2 r w + r^2`` floats. Large updates use BLAS ``dgemm``; the others take
     eight pivots per pass over a row of ``S`` (their rows of ``U12`` copied to contiguous scratch,
-    so the pass vectorises), then four, then one.
+    so the pass vectorises), the remaining ``w mod 8`` one at a time.
     """
     if r * r * w >= _GEMM_MIN:
         L21 = gbuf[: r * w].reshape((r, w))
@@ -98,15 +98,6 @@ def _schur(F, L, S, w, r, gbuf):
                         (l4 * U[4, b] + l5 * U[5, b]) + (l6 * U[6, b] + l7 * U[7, b])
                     )
         k += 8
-    if k + 4 <= w:
-        for a in range(r):
-            l0 = L[k, w + a]
-            l1 = L[k + 1, w + a]
-            l2 = L[k + 2, w + a]
-            l3 = L[k + 3, w + a]
-            for b in range(r):
-                S[a, b] -= (l0 * F[k, w + b] + l1 * F[k + 1, w + b]) + (l2 * F[k + 2, w + b] + l3 * F[k + 3, w + b])
-        k += 4
     while k < w:
         for a in range(r):
             lak = L[k, w + a]
