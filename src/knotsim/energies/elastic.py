@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from knotsim.energies.bending import bending_energy
+from knotsim.energies.bending import bending_energy, bending_twisting_energy
 from knotsim.energies.stretching import stretching_energy
 from knotsim.energies.twisting import twisting_energy
 from knotsim.rods.frames import update_frames
@@ -66,11 +66,17 @@ class ElasticEnergy:
         g = self.grad
         g[:] = 0.0
         es = stretching_energy(q, m.edge_dofs, m.rest_length, m.edge_EA, g, self.stretch_hess, want_hessian)
-        eb = bending_energy(q, m.bend_dofs, m.bend_edges, self.tangents, self.lengths, self.m1, self.m2,
-                            m.bend_EI, m.voronoi_rest, m.kappa_bar, g, self.bend_hess, want_hessian, self.kappa)
-        et = twisting_energy(q, m.bend_dofs, m.bend_edges, self.tangents, self.lengths, self.ref_twist,
-                             m.twist_GJ, m.voronoi_rest, m.twist_bar, g, self.twist_hess, want_hessian,
-                             self.twist, not self.separate_blocks)
+        if self.separate_blocks:
+            eb = bending_energy(q, m.bend_dofs, m.bend_edges, self.tangents, self.lengths, self.m1, self.m2,
+                                m.bend_EI, m.voronoi_rest, m.kappa_bar, g, self.bend_hess, want_hessian, self.kappa)
+            et = twisting_energy(q, m.bend_dofs, m.bend_edges, self.tangents, self.lengths, self.ref_twist,
+                                 m.twist_GJ, m.voronoi_rest, m.twist_bar, g, self.twist_hess, want_hessian,
+                                 self.twist, False)
+        else:  # both terms in one pass over the stencils, their Hessians summed into bend_hess
+            eb, et = bending_twisting_energy(q, m.bend_dofs, m.bend_edges, self.tangents, self.lengths, self.m1,
+                                             self.m2, self.ref_twist, m.bend_EI, m.twist_GJ, m.voronoi_rest,
+                                             m.kappa_bar, m.twist_bar, g, self.bend_hess, want_hessian, self.kappa,
+                                             self.twist, True, True, False)
         self.energies["stretching"] = es
         self.energies["bending"] = eb
         self.energies["twisting"] = et
