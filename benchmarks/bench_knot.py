@@ -15,6 +15,11 @@ Jacobian evaluation, ``assembly``, ``linear_solve`` = factorisations + solves, `
 ``python_other`` = the rest of the wall time) and the final pull force (N). The first-run compile
 time is kept out by a short warm-up run. Wall-clock figures need a quiet machine: compare
 ``cpu_s`` with ``wall_s``.
+
+The job runs with ``Simulation.advance`` and reads its log from ``Simulation.rows`` (dicts), so
+that pandas is not loaded; ``--dataframe`` runs it with ``Simulation.run``, which also returns the
+log as a pandas DataFrame (pandas with pyarrow add about 70 MiB to the peak memory). ``dataframe``
+and ``pandas_loaded`` in the JSON line say which.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ import argparse
 import json
 import os
 import resource
+import sys
 import time
 from pathlib import Path
 
@@ -111,15 +117,22 @@ def main() -> None:
                     help="write the pull force per step (time s, force N) to this file")
     ap.add_argument("--compare", default=None, metavar="CSV",
                     help="a --force-curve file of an earlier run: report the largest difference from it")
+    ap.add_argument("--dataframe", action="store_true",
+                    help="run with Simulation.run, which returns the log as a pandas DataFrame (loads pandas "
+                         "and pyarrow); default: Simulation.advance, the log read from Simulation.rows")
     args = ap.parse_args()
     x, name = start_shape(args.geometry, args.n_nodes)
-    build(x, args).run(5 * args.dt)  # compile (and load cached kernels) outside the timing
+    build(x, args).advance(5 * args.dt)  # compile (and load cached kernels) outside the timing
     sim = build(x, args)
     contact = sim.stepper.interactions[0]
     c0, w0 = time.process_time(), time.perf_counter()
-    log = sim.run(args.duration, progress=False)
+    if args.dataframe:
+        frame = sim.run(args.duration, progress=False)
+    else:
+        sim.advance(sim.state.time + args.duration)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
-    steps = len(log)
+    log = frame if args.dataframe else log_columns(sim.rows, LOG_COLUMNS)
+    steps = len(log["time"])
     iters = int(log["iterations"].sum())
     tm = sim.stepper.timers
     broad = contact.timers["broad_phase"]
@@ -128,23 +141,38 @@ def main() -> None:
              "linear_solve": tm["linear_solve"], "broad_phase": broad}
     split["python_other"] = wall - sum(split.values())
     axis = (x[-1] - x[0]) / np.linalg.norm(x[-1] - x[0])
-    force = log[["right_fx", "right_fy", "right_fz"]].to_numpy() @ axis
+    force = np.column_stack([np.asarray(log[k], float) for k in ("right_fx", "right_fy", "right_fz")]) @ axis
     f_end = float(force[-1])
     out = {"job": f"{name}, N = {len(x)}, {args.duration:g} s at dt = {args.dt:g} s, mu = {args.mu:g}",
            "cpu_s": round(cpu, 3), "wall_s": round(wall, 3), "steps": steps,
            "ms_per_step": round(1e3 * wall / steps, 4), "iterations_per_step": round(iters / steps, 4),
            "ms_per_iteration": round(1e3 * wall / max(iters, 1), 4),
            "factorizations_per_step": round(sim.stepper.factorizations / steps, 4),
-           "contacts_per_step": round(float(log["n_contacts"].mean()), 2),
+           "contacts_per_step": round(float(np.mean(log["n_contacts"])), 2),
            "peak_rss_mib": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),
            "split_s": {k: round(v, 3) for k, v in split.items()}, "final_pull_force_N": f_end,
-           "failed_attempts": int(sim.n_failures)}
-    curve = np.column_stack([log["time"].to_numpy(), force])
+           "failed_attempts": int(sim.n_failures), "dataframe": bool(args.dataframe),
+           "pandas_loaded": "pandas" in sys.modules}
+    curve = np.column_stack([np.asarray(log["time"], float), force])
     if args.force_curve:
         np.savetxt(args.force_curve, curve, delimiter=",", header="time_s,pull_force_N", fmt="%.17g")
     if args.compare:
         out["compare"] = compare_curves(curve, np.loadtxt(args.compare, delimiter=",", ndmin=2))
     print(json.dumps(out))
+
+
+#: the log columns the benchmark reads
+LOG_COLUMNS = ("time", "iterations", "n_contacts", "right_fx", "right_fy", "right_fz")
+
+
+def log_columns(rows, names) -> dict:
+    """Columns ``names`` of the per-step log ``rows`` (a sequence of dicts, ``Simulation.rows``) as
+    ``(steps,)`` float arrays, without pandas."""
+    out = {k: np.empty(len(rows)) for k in names}
+    for i, row in enumerate(rows):
+        for k in names:
+            out[k][i] = row[k]
+    return out
 
 
 def compare_curves(curve: np.ndarray, ref: np.ndarray) -> dict:
