@@ -28,7 +28,7 @@ __all__ = ["kernels_cached", "spare_cores", "uncached_kernels", "warm_up"]
 
 #: Kernels every run of a kind compiles (module, function): if all are cached, the rest are too.
 SENTINELS: dict[str, tuple[tuple[str, str], ...]] = {
-    "core": (("knotsim.energies.bending", "bending_energy"), ("knotsim.solver._kernels", "implicit_residual")),
+    "core": (("knotsim.energies.bending", "bending_twisting_energy"), ("knotsim.solver._kernels", "implicit_residual")),
     "contact": (("knotsim.contact.assembly", "contact_evaluate_regularized"),
                 ("knotsim.contact.broadphase", "find_candidate_pairs")),
     "topology": (("knotsim.geometry.planar", "_crossings_kernel"),),
