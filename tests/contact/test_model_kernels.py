@@ -76,3 +76,4 @@ def test_same_values_is_array_equal():
     c[2] = np.nan
     assert not same_values(c, c.copy()) and not np.array_equal(c, c.copy())
     assert same_values(np.array([0.0]), np.array([-0.0]))
+

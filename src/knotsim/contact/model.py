@@ -157,6 +157,8 @@ class Contact:
         self._drift_at = None
         #: ``(key, tol, reach)`` of the swept test of the listed pairs (:meth:`check`)
         self._swept_limits = None
+        #: ``(pair_dofs, q, (k, 4) distances at q)`` of the last swept test that found no crossing
+        self._swept_end = None
         self._last = _NO_EVAL
         self._stats: dict = {}
         self.timers = {"broad_phase": 0.0, "narrow_phase": 0.0}
@@ -364,9 +366,25 @@ class Contact:
                 return (f"contact penetration {ratio:.3g} x radius between edges {a} and {b} exceeds "
                         f"penetration_limit {s.penetration_limit}")
             if q_prev is not None:
-                tol, reach = self._swept_tolerances()
-                return pass_through(q_prev, q, self.pairs, self.pair_dofs, tol, reach)
+                return self._pass_through_listed(q_prev, q)
         return None
+
+    def _pass_through_listed(self, q_prev, q) -> str | None:
+        """Swept test of the listed pairs from ``q_prev`` to ``q``. The pairs' distances at ``q``
+        are kept: when the next step starts from ``q`` with the same list they are its start
+        distances (:func:`~knotsim.contact.swept.first_crossing_chained`, the same numbers)."""
+        tol, reach = self._swept_tolerances()
+        last = self._swept_end
+        self._swept_end = None
+        start = None
+        if last is not None and last[0] is self.pair_dofs and last[1].shape == q_prev.shape \
+                and same_values(last[1], q_prev):
+            start = last[2]
+        end = np.empty((self.pair_dofs.shape[0], 4))
+        msg = pass_through(q_prev, q, self.pairs, self.pair_dofs, tol, reach, start, end)
+        if msg is None:
+            self._swept_end = (self.pair_dofs, q.copy(), end)
+        return msg
 
     def _swept_tolerances(self) -> tuple[np.ndarray, np.ndarray]:
         """``(tol, reach)`` (k,) m of the swept test of the listed pairs: ``CROSSING_TOL`` times the

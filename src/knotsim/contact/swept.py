@@ -37,7 +37,7 @@ from knotsim._util.sorting import argsort_stable
 from knotsim.contact.broadphase import _excluded
 from knotsim.contact.distance import edge_edge_distance
 
-__all__ = ["MIN_SUBSTEP", "first_crossing", "pass_through", "swept_box_pairs"]
+__all__ = ["MIN_SUBSTEP", "first_crossing", "first_crossing_chained", "pass_through", "swept_box_pairs"]
 
 #: Shortest sub-step of :func:`first_crossing` (fraction of the step).
 MIN_SUBSTEP = 1.0 / 1024.0
@@ -146,6 +146,23 @@ def first_crossing(q0, q1, pair_dofs, tol, reach):
     turned by more than 90° within a short sub-step ending at ``t``; ``value`` = cosine) or
     ``FLIPPED`` (3: turned by more than 90° between the ends of the step; ``value`` = cosine).
     """
+    none = np.empty((0, 4))
+    return first_crossing_chained(q0, q1, pair_dofs, tol, reach, none, none)
+
+
+@njit(cache=True)
+def first_crossing_chained(q0, q1, pair_dofs, tol, reach, start, end):
+    """:func:`first_crossing`, with the distances at the start of the step given and those at
+    its end returned, so that consecutive steps compute each pair's distance once.
+
+    ``start`` (k, 4) float64: the distance ``D`` (m) and the closest-point vector (3, m) of every
+    pair at ``q0`` (as :func:`first_crossing` computes them: ``end`` of the check of the step
+    before, for the same pairs), or (0, 4) to compute them. ``end`` (k, 4): filled with the same at
+    ``q1`` when no pair crossed (the result is ``-1``; partly filled otherwise), or (0, 4) for no
+    output. The results are those of :func:`first_crossing`, bit for bit.
+    """
+    given = start.shape[0] > 0
+    keep = end.shape[0] > 0
     p0 = np.empty(12)
     p1 = np.empty(12)
     p = np.empty(12)
@@ -164,8 +181,13 @@ def first_crossing(q0, q1, pair_dofs, tol, reach):
                     du = (p1[3 * a + c] - p0[3 * a + c]) - (p1[6 + 3 * b + c] - p0[6 + 3 * b + c])
                     s += du * du
                 lip = max(lip, math.sqrt(s))
-        d, bi, bj, _ = edge_edge_distance(p0)
-        _closest_vector(p0, bi, bj, v)
+        if given:
+            d = start[k, 0]
+            for c in range(3):
+                v[c] = start[k, 1 + c]
+        else:
+            d, bi, bj, _ = edge_edge_distance(p0)
+            _closest_vector(p0, bi, bj, v)
         d_start = d
         for c in range(3):
             vs[c] = v[c]
@@ -201,16 +223,24 @@ def first_crossing(q0, q1, pair_dofs, tol, reach):
             cos = (vs[0] * v[0] + vs[1] * v[1] + vs[2] * v[2]) / (d_start * d)
             if cos < 0.0:
                 return k, FLIPPED, 1.0, cos
+        if keep:  # the loop ended at t = 1: d and v are those of q1
+            end[k, 0] = d
+            for c in range(3):
+                end[k, 1 + c] = v[c]
     return -1, NONE, 1.0, 0.0
 
 
-def pass_through(q0, q1, pairs, pair_dofs, tol, reach=None) -> str | None:
+def pass_through(q0, q1, pairs, pair_dofs, tol, reach=None, start=None, end=None) -> str | None:
     """Message naming the first pair of ``pairs`` (``(k, 2)`` edge numbers, with their
     ``pair_dofs``) that crossed during the step from ``q0`` to ``q1`` (:func:`first_crossing` with
-    ``tol`` and ``reach``, m; no end-to-end test without ``reach``), or ``None``."""
+    ``tol`` and ``reach``, m; no end-to-end test without ``reach``), or ``None``. ``start`` and
+    ``end``: the distances at ``q0`` given and those at ``q1`` returned
+    (:func:`first_crossing_chained`)."""
     if reach is None:
         reach = np.zeros(pairs.shape[0])
-    k, code, t, value = first_crossing(q0, q1, np.ascontiguousarray(pair_dofs), tol, reach)
+    none = np.empty((0, 4))
+    k, code, t, value = first_crossing_chained(q0, q1, np.ascontiguousarray(pair_dofs), tol, reach,
+                                               none if start is None else start, none if end is None else end)
     if k < 0:
         return None
     a, b = (int(x) for x in pairs[k])
