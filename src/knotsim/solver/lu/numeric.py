@@ -49,7 +49,7 @@ def _schur(F, L, S, w, r, gbuf):
 
     ``F[:w, w:]`` is ``U12`` ``(w, r)``, ``F[w:, w:]`` is ``F22``, ``L`` ``(w, m)`` holds ``L21``
     transposed in ``L[:, w:]``; ``S`` ``(r, r)`` output (the caller's stack slot); ``gbuf``
-    scratch of at least ``2 r w + r^2`` floats. Large updates use BLAS ``dgemm``; the others take
+    scratch of at least ``max(2 r w + r^2, 8 r)`` floats (``3 m^2`` always is). Large updates use BLAS ``dgemm``; the others take
     eight pivots per pass over a row of ``S`` (their rows of ``U12`` copied to contiguous scratch,
     so the pass vectorises), the remaining ``w mod 8`` one at a time.
     """
