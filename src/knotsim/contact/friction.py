@@ -128,30 +128,64 @@ def friction_pair(p, p_prev, dt, mu, nu, fc, dfc, beta_i, beta_j, dbeta_i, dbeta
     dvi = v3.sub(v1, v0)  # d v_i^e / d beta_i
     dvj = v3.sub(v3_, v2)  # d v_j^e / d beta_j
     isn = 1.0 / sn
+    # d w = C d v_rel - D dS (3x3 matrices, row-major 9-tuples), from
+    #   d n = (I - n n^T) dS / |S|,   d vT = P d v_rel - n (v_rel . dn) - (v_rel . n) dn,
+    #   d w = mu (phi d vT + psi vT (vT . d vT)) = A d vT:
+    # C = A P and D = A (n vT^T + vn P) / |S| with P = I - n n^T, A = mu (phi I + psi vT vT^T)
+    P = _projector(n)
+    A = (mu * (phi + psi * vT[0] * vT[0]), mu * psi * vT[0] * vT[1], mu * psi * vT[0] * vT[2],
+         mu * psi * vT[1] * vT[0], mu * (phi + psi * vT[1] * vT[1]), mu * psi * vT[1] * vT[2],
+         mu * psi * vT[2] * vT[0], mu * psi * vT[2] * vT[1], mu * (phi + psi * vT[2] * vT[2]))
+    C = _mat3_mul(A, P)
+    G = (isn * (n[0] * vT[0] + vn * P[0]), isn * (n[0] * vT[1] + vn * P[1]), isn * (n[0] * vT[2] + vn * P[2]),
+         isn * (n[1] * vT[0] + vn * P[3]), isn * (n[1] * vT[1] + vn * P[4]), isn * (n[1] * vT[2] + vn * P[5]),
+         isn * (n[2] * vT[0] + vn * P[6]), isn * (n[2] * vT[1] + vn * P[7]), isn * (n[2] * vT[2] + vn * P[8]))
+    D = _mat3_mul(A, G)
+    cvi = _mat3_vec(C, dvi)
+    cvj = _mat3_vec(C, dvj)
     for m in range(12):
         b = m // 3
         kk = m - 3 * b
-        cb = c[b] * idt
-        # d v_rel / d p_m
-        dvrel = (
-            cb if kk == 0 else 0.0,
-            cb if kk == 1 else 0.0,
-            cb if kk == 2 else 0.0,
-        )
-        dvrel = v3.add(dvrel, v3.sub(v3.scale(dbeta_i[m], dvi), v3.scale(dbeta_j[m], dvj)))
-        # d n / d p_m = (I - n n^T) dS / |S|
-        dS = (dfc[0, m] + dfc[3, m], dfc[1, m] + dfc[4, m], dfc[2, m] + dfc[5, m])
-        dn = v3.scale(isn, v3.axpy(-v3.dot(n, dS), n, dS))
-        # d vT = (I - n n^T) dvrel - n (vrel . dn) - (vrel . n) dn
-        dvT = v3.axpy(-v3.dot(n, dvrel), n, dvrel)
-        dvT = v3.axpy(-v3.dot(vrel, dn), n, dvT)
-        dvT = v3.axpy(-vn, dn, dvT)
-        # d w = mu (phi dvT + psi vT (vT . dvT))
-        dw = v3.scale(mu, v3.axpy(psi * v3.dot(vT, dvT), vT, v3.scale(phi, dvT)))
+        cb = c[b] * idt  # d v_rel / d p_m = cb e_kk + dbeta_i dvi - dbeta_j dvj
+        bi_m = dbeta_i[m]
+        bj_m = dbeta_j[m]
+        dS0 = dfc[0, m] + dfc[3, m]
+        dS1 = dfc[1, m] + dfc[4, m]
+        dS2 = dfc[2, m] + dfc[5, m]
+        dw0 = cb * C[kk] + bi_m * cvi[0] - bj_m * cvj[0] - (D[0] * dS0 + D[1] * dS1 + D[2] * dS2)
+        dw1 = cb * C[3 + kk] + bi_m * cvi[1] - bj_m * cvj[1] - (D[3] * dS0 + D[4] * dS1 + D[5] * dS2)
+        dw2 = cb * C[6 + kk] + bi_m * cvi[2] - bj_m * cvj[2] - (D[6] * dS0 + D[7] * dS1 + D[8] * dS2)
         for a in range(4):
             fha = fh[a]
             dfn = fha[0] * dfc[3 * a, m] + fha[1] * dfc[3 * a + 1, m] + fha[2] * dfc[3 * a + 2, m]
             sa = -sgn[a]
-            jac_out[3 * a, m] = sa * (w[0] * dfn + fn[a] * dw[0])
-            jac_out[3 * a + 1, m] = sa * (w[1] * dfn + fn[a] * dw[1])
-            jac_out[3 * a + 2, m] = sa * (w[2] * dfn + fn[a] * dw[2])
+            fa = fn[a]
+            jac_out[3 * a, m] = sa * (w[0] * dfn + fa * dw0)
+            jac_out[3 * a + 1, m] = sa * (w[1] * dfn + fa * dw1)
+            jac_out[3 * a + 2, m] = sa * (w[2] * dfn + fa * dw2)
+
+
+@njit(cache=True)
+def _projector(n):
+    """``I - n n^T`` (row-major 9-tuple) for a unit 3-vector ``n``."""
+    return (1.0 - n[0] * n[0], -n[0] * n[1], -n[0] * n[2],
+            -n[1] * n[0], 1.0 - n[1] * n[1], -n[1] * n[2],
+            -n[2] * n[0], -n[2] * n[1], 1.0 - n[2] * n[2])
+
+
+@njit(cache=True)
+def _mat3_mul(A, B):
+    """Product of two 3x3 matrices given as row-major 9-tuples."""
+    return (A[0] * B[0] + A[1] * B[3] + A[2] * B[6], A[0] * B[1] + A[1] * B[4] + A[2] * B[7],
+            A[0] * B[2] + A[1] * B[5] + A[2] * B[8],
+            A[3] * B[0] + A[4] * B[3] + A[5] * B[6], A[3] * B[1] + A[4] * B[4] + A[5] * B[7],
+            A[3] * B[2] + A[4] * B[5] + A[5] * B[8],
+            A[6] * B[0] + A[7] * B[3] + A[8] * B[6], A[6] * B[1] + A[7] * B[4] + A[8] * B[7],
+            A[6] * B[2] + A[7] * B[5] + A[8] * B[8])
+
+
+@njit(cache=True)
+def _mat3_vec(A, x):
+    """``A x`` for a 3x3 row-major 9-tuple ``A`` and a 3-vector ``x``."""
+    return (A[0] * x[0] + A[1] * x[1] + A[2] * x[2], A[3] * x[0] + A[4] * x[1] + A[5] * x[2],
+            A[6] * x[0] + A[7] * x[1] + A[8] * x[2])
