@@ -62,11 +62,16 @@ def test_kernel_matches_per_pair_reference(regularized):
     tol, nu, kc, dt = 5e-4, 1e-3, 1e3, 1e-3
     kernel = contact_evaluate_regularized if regularized else contact_evaluate_exact
     residual = np.zeros_like(q)
-    blocks = np.zeros((n_pairs, 12, 12))
-    e = kernel(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, True, blocks,
-               np.empty(n_pairs), np.empty((n_pairs, 12)), np.empty((n_pairs, 12)), pair_eta)
+    # blocks stored for every pair but the second, in reverse order: pair k in blocks[slot[k]]
+    slot = np.array([5, -1, 4, 3, 2, 1], np.int64)[:n_pairs]
+    blocks = np.full((n_pairs, 12, 12), np.nan)
+    e, missing = kernel(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, True, blocks, slot,
+                        np.empty(n_pairs), np.empty((n_pairs, 12)), np.empty((n_pairs, 12)), pair_eta)
     r_ref, b_ref, e_ref = _reference(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, pair_eta)
     assert e_ref > 0.0  # some pairs are in range: the comparison is not vacuous
     assert e == pytest.approx(e_ref, rel=1e-12)
     np.testing.assert_allclose(residual, r_ref, rtol=1e-10, atol=1e-12 * np.abs(r_ref).max())
-    np.testing.assert_allclose(blocks, b_ref, rtol=1e-10, atol=1e-12 * np.abs(b_ref).max())
+    stored = slot >= 0
+    np.testing.assert_allclose(blocks[slot[stored]], b_ref[stored], rtol=1e-10, atol=1e-12 * np.abs(b_ref).max())
+    assert np.all(np.isnan(blocks[0]))  # slot 0 belongs to no pair: untouched
+    assert missing == int(np.any(b_ref[1] != 0.0))  # the blockless pair counts when it is in range

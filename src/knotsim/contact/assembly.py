@@ -48,23 +48,23 @@ def pair_dofs_from_edges(pairs, edge_dofs):
 
 @njit(cache=True)
 def contact_evaluate_regularized(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
-                                 want_jacobian, blocks, pair_delta, pair_fc, pair_ff, pair_eta):
+                                 want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta):
     """:func:`contact_evaluate` with the regularized distance (every ``pair_eta > 0``)."""
     return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
-                            blocks, pair_delta, pair_fc, pair_ff, pair_eta, True)
+                            blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, True)
 
 
 @njit(cache=True)
 def contact_evaluate_exact(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
-                           want_jacobian, blocks, pair_delta, pair_fc, pair_ff, pair_eta):
+                           want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta):
     """:func:`contact_evaluate` with the exact segment distance (``pair_eta`` unused)."""
     return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
-                            blocks, pair_delta, pair_fc, pair_ff, pair_eta, False)
+                            blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, False)
 
 
 @njit(inline="always", cache=True)
 def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
-                     blocks, pair_delta, pair_fc, pair_ff, pair_eta, regularized):
+                     blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, regularized):
     """Contact and friction of every candidate pair at the Newton iterate ``q``.
 
     Called through :func:`contact_evaluate_regularized` or :func:`contact_evaluate_exact`, which
@@ -78,8 +78,10 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     tol : IMC distance tolerance δ (m); nu : slip tolerance ν (m/s); kc : contact stiffness (N/m).
     residual : (n_dofs,) float64, updated in place: ``+= k_c ∇E − F_fr`` (N).
     want_jacobian : whether to fill ``blocks``.
-    blocks : (k, 12, 12) float64 output (if ``want_jacobian``): ``k_c ∇²E − ∂F_fr/∂p`` (N/m); zero
-        for pairs out of range.
+    blocks : (b, 12, 12) float64 output (if ``want_jacobian``): ``k_c ∇²E − ∂F_fr/∂p`` (N/m) of the
+        pairs that have a Jacobian block, pair ``k`` in ``blocks[block_slot[k]]``; zero for pairs out
+        of range.
+    block_slot : (k,) int64, the block of every pair, −1 for a pair without one.
     pair_delta : (k,) float64 output, distance Δ (m) of every pair.
     pair_fc, pair_ff : (k, 12) float64 outputs, contact force ``−k_c ∇E`` and friction force (N) on
         the four nodes of every pair.
@@ -89,7 +91,9 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
 
     Returns
     -------
-    Total contact energy ``k_c Σ E`` (J).
+    ``(energy, missing)``: the total contact energy ``k_c Σ E`` (J) and, with ``want_jacobian``, the
+    number of pairs within range (``Δ < d + δ``) that have no block (their Jacobian is not stored:
+    the caller gives them blocks and evaluates again).
     """
     npair = pair_dofs.shape[0]
     p = np.empty(12)
@@ -103,21 +107,25 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     ffr = np.empty(12)
     jfr = np.empty((12, 12))
     etot = 0.0
+    missing = 0
     for k in range(npair):
         for m in range(12):
             p[m] = q[pair_dofs[k, m]]
         eta = pair_eta[k]
         E, delta, bi, bj, case = pair_energy(p, pair_d[k], tol, grad, hess, eta, regularized, want_jacobian)
         pair_delta[k] = delta
+        slot = block_slot[k]
         if E <= 0.0:
             for m in range(12):
                 pair_fc[k, m] = 0.0
                 pair_ff[k, m] = 0.0
-            if want_jacobian:
+            if want_jacobian and slot >= 0:
                 for m in range(12):
                     for n in range(12):
-                        blocks[k, m, n] = 0.0
+                        blocks[slot, m, n] = 0.0
             continue
+        if want_jacobian and slot < 0:
+            missing += 1
         etot += E
         for m in range(12):
             g = kc * grad[m]
@@ -140,18 +148,18 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
             for m in range(12):
                 pair_ff[k, m] = ffr[m]
                 residual[pair_dofs[k, m]] -= ffr[m]
-            if want_jacobian:
+            if want_jacobian and slot >= 0:
                 for m in range(12):
                     for n in range(12):
-                        blocks[k, m, n] = kc * hess[m, n] - jfr[m, n]
+                        blocks[slot, m, n] = kc * hess[m, n] - jfr[m, n]
         else:
             for m in range(12):
                 pair_ff[k, m] = 0.0
-            if want_jacobian:
+            if want_jacobian and slot >= 0:
                 for m in range(12):
                     for n in range(12):
-                        blocks[k, m, n] = kc * hess[m, n]
-    return kc * etot
+                        blocks[slot, m, n] = kc * hess[m, n]
+    return kc * etot, missing
 
 
 @njit(cache=True)

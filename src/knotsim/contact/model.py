@@ -47,7 +47,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from knotsim.contact._model_kernels import gap_summary, same_values, unblocked_in_range
+from knotsim.contact._model_kernels import gap_summary, same_values
 from knotsim.contact.assembly import (
     approach_forces,
     contact_evaluate_exact,
@@ -267,7 +267,6 @@ class Contact:
         self.pair_eta = 8.0 * self.pair_d * self.settings.parallel_smoothing / (la * la + lb * lb)
         self.pair_mu = np.ascontiguousarray(self._mu_table[m.edge_rod[pairs[:, 0]], m.edge_rod[pairs[:, 1]]])
         self._pair_keys = pairs[:, 0] * m.n_edges + pairs[:, 1]
-        self._blocks = np.zeros((pairs.shape[0], 12, 12))
         self._set_blocks(np.zeros(pairs.shape[0], bool))
 
     def _set_blocks(self, mask) -> None:
@@ -275,6 +274,11 @@ class Contact:
         self._block_mask = mask
         self._block_idx = np.flatnonzero(mask)
         self._block_pair_dofs = np.ascontiguousarray(self.pair_dofs[self._block_idx])
+        # the kernel writes the block of pair k into self._blocks[slot[k]] (slot -1: no block)
+        self._block_slot = np.full(mask.shape[0], -1, np.int64)
+        self._block_slot[self._block_idx] = np.arange(self._block_idx.shape[0])
+        if self._blocks.shape[0] != self._block_idx.shape[0]:
+            self._blocks = np.zeros((self._block_idx.shape[0], 12, 12))
         self.pattern_version += 1
 
     def block_dofs(self) -> np.ndarray:
@@ -298,19 +302,21 @@ class Contact:
         ev = _Eval(q.copy(), np.empty(k), np.empty((k, 12)), np.empty((k, 12)))
         # one kernel per distance: a run compiles only the one it uses (pair_eta > 0 iff smoothing > 0)
         kernel = contact_evaluate_regularized if self.settings.parallel_smoothing > 0.0 else contact_evaluate_exact
-        e = kernel(q, q_prev, dt, self.pair_dofs, self.pair_d, self.pair_mu, self.settings.delta,
-                   self.settings.nu, self.k_c, residual, bool(want_jacobian), self._blocks, ev.delta,
-                   ev.fc, ev.ff, self.pair_eta)
+        args = (self.pair_dofs, self.pair_d, self.pair_mu, self.settings.delta, self.settings.nu, self.k_c)
+        e, missing = kernel(q, q_prev, dt, *args, residual, bool(want_jacobian), self._blocks, self._block_slot,
+                            ev.delta, ev.fc, ev.ff, self.pair_eta)
         self._last = ev
         self._q_prev = q_prev
         self._dt = dt
         blocks = None
         if want_jacobian:
-            if unblocked_in_range(ev.delta, self.pair_d, self.settings.delta, self._block_mask):
+            if missing:  # pairs in range without a block: new blocks (a new pattern), evaluated again
                 live = ev.delta < self.pair_d + self.settings.delta
                 band = self.settings.delta + BLOCK_BAND_FRACTION * self.settings.margin
                 self._set_blocks(self._block_mask | live | (ev.delta < self.pair_d + band))
-            blocks = self._blocks[self._block_idx]
+                kernel(q, q_prev, dt, *args, np.zeros_like(residual), True, self._blocks, self._block_slot,
+                       ev.delta, ev.fc, ev.ff, self.pair_eta)
+            blocks = self._blocks  # the blocks of block_dofs(), in its order (valid until the next call)
         self.timers["narrow_phase"] += time.perf_counter() - t0
         return float(e), blocks
 
