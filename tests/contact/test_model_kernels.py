@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from knotsim.contact._model_kernels import gap_summary, same_values, unblocked_in_range
+from knotsim.contact._model_kernels import gap_summary, same_values
 
 
 def _reference(delta, pair_d, hmin, contact_range):
@@ -52,17 +52,6 @@ def test_gap_summary_of_no_pairs():
     e = np.zeros(0)
     n, min_gap, worst, ratio = gap_summary(e, e, e, 1e-3)
     assert (n, min_gap, worst, ratio) == (0, math.inf, 0, -math.inf)
-
-
-def test_unblocked_in_range():
-    pair_d = np.full(5, 3e-3)
-    delta = np.array([3.2e-3, 9e-3, 3.6e-3, np.nan, 2.9e-3])
-    blocked = np.array([True, False, False, False, True])
-    ref = lambda b: bool(np.any((delta < pair_d + 5e-4) & ~b))  # noqa: E731
-    assert unblocked_in_range(delta, pair_d, 5e-4, blocked) == ref(blocked) is False
-    blocked[0] = False
-    assert unblocked_in_range(delta, pair_d, 5e-4, blocked) == ref(blocked) is True
-    assert not unblocked_in_range(np.zeros(0), np.zeros(0), 5e-4, np.zeros(0, bool))
 
 
 def test_same_values_is_array_equal():

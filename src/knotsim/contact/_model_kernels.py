@@ -1,7 +1,7 @@
 """Numba kernels of the per-step bookkeeping of :class:`knotsim.contact.model.Contact`: the gap
-statistics of the candidate pairs, whether a pair in range lacks a Jacobian block, and whether two
-arrays hold the same numbers. Each replaces a handful of numpy calls on small arrays (one
-dispatch instead of several, no temporaries) and gives exactly the numbers those calls gave.
+statistics of the candidate pairs and whether two arrays hold the same numbers. Each replaces a
+handful of numpy calls on small arrays (one dispatch instead of several, no temporaries) and gives
+exactly the numbers those calls gave.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import math
 
 from numba import njit
 
-__all__ = ["gap_summary", "same_values", "unblocked_in_range"]
+__all__ = ["gap_summary", "same_values"]
 
 
 @njit(cache=True)
@@ -51,16 +51,6 @@ def gap_summary(delta, pair_d, pair_hmin, contact_range):
     if gap_nan:
         min_gap = math.nan
     return n, min_gap, worst, best
-
-
-@njit(cache=True)
-def unblocked_in_range(delta, pair_d, contact_range, has_block):
-    """Whether a pair within range (``Δ < d + δ``, m) has no Jacobian block (``has_block`` (k,)
-    bool): ``numpy.any((delta < pair_d + contact_range) & ~has_block)``."""
-    for i in range(delta.shape[0]):
-        if delta[i] < pair_d[i] + contact_range and not has_block[i]:
-            return True
-    return False
 
 
 @njit(cache=True)
