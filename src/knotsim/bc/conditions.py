@@ -346,10 +346,10 @@ class BoundaryConditions(GripMethods):
     def evaluate(self, t: float, q_in: np.ndarray, t_in: float):
         """Constraints and loads at time ``t`` (s) for a step starting from ``q_in`` at ``t_in``.
 
-        Returns ``(fixed_dofs (k,) int, fixed_values (k,) float, f_ext (n_dofs,) float)``. Groups that
-        become active during the step capture their anchor (the node positions and edge angles of
-        ``q_in``).
-        """
+        Returns ``(fixed_dofs (k,) int, fixed_values (k,) float, f_ext (n_dofs,) float)``;
+        ``fixed_dofs`` is read-only (the same array from step to step while the active groups stay).
+        Groups that become active during the step capture their anchor (the node positions and edge
+        angles of ``q_in``)."""
         m = self.model
         dofs: list[np.ndarray] = []
         vals: list[float] = []
