@@ -109,7 +109,7 @@ def test_explicit_permutation_and_relaxation_options():
     for kwargs in (
         dict(ordering=perm),
         dict(nrelax=1, relax_frac=0.0),
-        dict(nrelax=64, relax_frac=0.9, panel=3),
+        dict(nrelax=64, relax_frac=0.9),
     ):
         check(A, FixedPatternLU.from_matrix(A, **kwargs), np.random.default_rng(1))
 

@@ -75,8 +75,6 @@ class FixedPatternLU:
     nrelax, relax_frac:
         Supernode amalgamation: a chain of columns is merged into one supernode while its width
         is ``<= nrelax`` and explicit zeros are ``<= relax_frac`` of it.
-    panel:
-        Column-block width of the blocked dense partial factorisation of each front.
     pivot_tol:
         A pivot ``u_jj`` with ``|u_jj| <= pivot_tol * max_i |A[i, j]|`` raises :class:`ZeroPivotError`.
     recycle:
@@ -101,7 +99,6 @@ class FixedPatternLU:
         blocks=4,
         nrelax: int = 8,
         relax_frac: float = 0.6,
-        panel: int = 16,
         pivot_tol: float = 1e-13,
         recycle: FixedPatternLU | None = None,
     ):
@@ -111,7 +108,6 @@ class FixedPatternLU:
         self.indptr = indptr
         self.indices = indices
         self.pivot_tol = float(pivot_tol)
-        self._nb = max(int(panel), 1)
         gp, gi, perm, iperm, up, ui = ordered_pattern(n, indptr, indices, ordering, blocks)
         self._cnorm = np.zeros(n)
         self._y = np.zeros(n)
@@ -208,7 +204,6 @@ class FixedPatternLU:
             self._gbuf,
             self._cnorm,
             self.pivot_tol,
-            self._nb,
         )
         if bad >= 0:
             s = int(np.searchsorted(self._sf, bad, side="right") - 1)

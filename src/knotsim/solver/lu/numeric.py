@@ -133,7 +133,6 @@ def mf_factorize(
     gbuf,
     cnorm,
     tol,
-    nb,
 ):
     """Multifrontal LU without pivoting of ``P A P^T``.
 
@@ -143,8 +142,8 @@ def mf_factorize(
     ``L`` panel, and writes its Schur complement ``F22 - L21 U12`` ``(m-w, m-w)`` straight onto
     ``stack``. The panels at ``poff[s]`` are ``(w, m)``: ``PU[b, a] = U[b, a]`` (``a >= b``) and
     ``PL[b, a] = L[a, b]`` (``a > b``) with the pivot ``PL[b, b] = U[b, b]``; the other entries
-    are unused. ``gbuf`` is scratch for BLAS; ``nb`` is unused (the pivot rows are not blocked:
-    fronts have a few dozen rows). Returns ``-1`` on success or the permuted index of the first
+    are unused. ``gbuf`` is scratch for BLAS (the pivot rows are not blocked: fronts have a few
+    dozen rows). Returns ``-1`` on success or the permuted index of the first
     bad pivot (its value is left in ``front``).
     """
     ns = sf.shape[0] - 1
