@@ -24,7 +24,7 @@ BASE = ROOT / "docs" / "studies" / "granny_vs_reef_mu_tied"
 MUS = (0.1, 0.5)
 #: Base values of the changed settings (single-rod-bend defaults; the shipped tie).
 DEFAULTS = {"overrides.dt": 2.5e-3, "overrides.contact.stiffness_scaler": 500.0, "overrides.contact.delta": 5e-4}
-TAGS = {"slack_m20": "tied slack −20 % (end pull 0.176 m)", "slack_p20": "tied slack +20 % (end pull 0.264 m)",
+TAGS = {"slack_m20": "tie end pull −20 % (0.176 m: more slack)", "slack_p20": "tie end pull +20 % (0.264 m: less slack)",
         "n201": "N = 201 (tied again)", "n301": "N = 301 (tied again)", "n401": "N = 401 (tied again)",
         "n601": "N = 601 (tied again)"}
 ORDER = ["base (shipped tie, N = 209)", "dt × 0.5", "contact stiffness × 0.5", "contact stiffness × 2",
@@ -108,12 +108,12 @@ def render(table) -> str:
         lo, hi = min(rs.values()), max(rs.values())
         b = rs.get(ORDER[0])
         verdict = _verdict(lo, hi)
-        num = [v for lab, v in rs.items() if not lab.startswith("tied slack")]
-        slack = [v for lab, v in rs.items() if lab.startswith("tied slack")]
+        num = [v for lab, v in rs.items() if not lab.startswith("tie end pull")]
+        slack = [v for lab, v in rs.items() if lab.startswith("tie end pull")]
         parts = f"numerical settings only (dt, contact stiffness, δ, N; {len(num)} set-ups): [{min(num):.3g}, " \
                 f"{max(num):.3g}], {_verdict(min(num), max(num))}"
         if slack:
-            parts += f"; tied slack ±20 %: {', '.join(f'{v:.3g}' for v in slack)}"
+            parts += f"; tie end pull ±20 %: {', '.join(f'{v:.3g}' for v in slack)}"
         spread = []
         for knot in ("granny", "reef"):
             ref = base.get((knot, mu))
@@ -121,8 +121,8 @@ def render(table) -> str:
             if ref is None or not vals:
                 continue
             dev = {lab: v / ref[0] - 1 for lab, v in vals.items() if not lab.startswith("base")}
-            groups = (("dt, stiffness, δ", [d for lab, d in dev.items() if not lab.startswith(("N = ", "tied slack"))]),
-                      ("slack −/+20 %", [d for lab, d in dev.items() if lab.startswith("tied slack")]))
+            groups = (("dt, stiffness, δ", [d for lab, d in dev.items() if not lab.startswith(("N = ", "tie end pull"))]),
+                      ("end pull −/+20 %", [d for lab, d in dev.items() if lab.startswith("tie end pull")]))
             txt = f"{knot} " + ", ".join(f"{name} {min(g) * 100:+.1f} … {max(g) * 100:+.1f} %" for name, g in groups if g)
             res = {lab: d for lab, d in dev.items() if lab.startswith("N = ")}
             if res:
