@@ -15,7 +15,12 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 from knotsim.knots import tying  # noqa: E402
 from knotsim.knots.library import load_knot_spec  # noqa: E402
 from knotsim.knots.topology import analyze  # noqa: E402
-from knotsim.knots.tying.channel import SECOND_HALF_KNOT_PASSES, channel_curve, channel_sequence  # noqa: E402
+from knotsim.knots.tying.channel import (  # noqa: E402
+    DEFAULT_N_NODES,
+    SECOND_HALF_KNOT_PASSES,
+    channel_curve,
+    channel_sequence,
+)
 from knotsim.knots.tying.run import GAP_LIMIT_DIAMETERS  # noqa: E402
 
 
@@ -49,12 +54,13 @@ def test_channel_has_clearance(curves):
 def _grip_positions(cfg, t):
     """Prescribed positions (m) of the guide grips at time t (s), by node."""
     out = {}
+    ds = 1.3 / (cfg["rods"][0]["n_nodes"] - 1)
     for b in cfg["bc"]:
         if not b["name"].startswith("guide_") or t >= b["stop"]:
             continue
         i = b["nodes"][0]
         pts = np.asarray(b["waypoints"]["points"])
-        out[i] = np.array([i * 1.3 / 208, 0.0, 0.0]) + np.array(
+        out[i] = np.array([i * ds, 0.0, 0.0]) + np.array(
             [np.interp(t, b["waypoints"]["times"], pts[:, k]) for k in range(3)])
     return out
 
@@ -62,8 +68,12 @@ def _grip_positions(cfg, t):
 @pytest.mark.parametrize("kind", ["reef", "granny"])
 def test_grips_slide_the_rope_along_the_channel(kind, curves):
     cfg, info = channel_sequence(kind)
-    ds = 1.3 / 208
-    assert info["n_guides"] == 53 and 0 in _grip_positions(cfg, 0.0) and 208 in _grip_positions(cfg, 0.0)
+    n = DEFAULT_N_NODES
+    assert n == 601 and cfg["rods"][0]["n_nodes"] == n  # the shipped resolution (channel.DEFAULT_N_NODES)
+    ds = 1.3 / (n - 1)
+    # every 4th node and the last: 151 grips at N = 601
+    assert info["n_guides"] == len(set(range(0, n, 4)) | {n - 1}) == 151
+    assert 0 in _grip_positions(cfg, 0.0) and n - 1 in _grip_positions(cfg, 0.0)
     # at the end of the feed every grip sits on its node of the channel
     x, hold = curves[kind]
     at_end = _grip_positions(cfg, info["t_feed"])
@@ -92,7 +102,7 @@ def test_shipped_file_is_the_generator_output(kind):
 @pytest.mark.slow
 @pytest.mark.parametrize("kind", ["reef", "granny"])
 def test_tie_studied_form_from_straight_rod(kind, tmp_path):
-    """Full ties (N = 209, a few minutes each): the right connected sum, nested, the second
+    """Full ties (N = 601, about 1-2 min each): the right connected sum, nested, the second
     half-knot within 10 rope diameters of the first."""
     res = tying.tie_from_straight(kind, tmp_path / "run", overrides={"run": {"output_interval": 1.0}})
     assert res.ok, res.knot_type

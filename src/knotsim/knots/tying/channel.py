@@ -29,17 +29,25 @@ import numpy as np
 
 from knotsim.knots.tying.hands import _check_kind
 
-__all__ = ["SECOND_HALF_KNOT_PASSES", "channel_curve", "channel_header", "channel_sequence"]
+__all__ = ["DEFAULT_N_NODES", "SECOND_HALF_KNOT_PASSES", "channel_curve", "channel_header", "channel_sequence"]
 
 #: Indices, among the 12 over/under letters of the ``single_rod_reef`` drawing (in walking order),
 #: of the passes through the three crossings of the second half-knot (the one on top, that both
 #: legs run through); swapping them mirrors that half-knot (reef <-> granny).
 SECOND_HALF_KNOT_PASSES = (0, 1, 2, 9, 10, 11)
 
+#: Default number of nodes of the tied rope (1.3 m: 2.17 mm = 0.43 rope diameters between nodes).
+#: Chosen from the resolution rows of ``validation/studies/convergence_tied/convergence.md``: with
+#: the rope tied again at N = 201, 301, 401, 601, the pulled means still fell by 2-7 % from
+#: N = 301 to 601 (against <= 0.6 % for dt, contact stiffness and delta), and the former default
+#: N = 209 put the mu = 0.1 granny 31 % above its N = 601 value; so the tie is shipped at 601.
+DEFAULT_N_NODES = 601
 
-def channel_curve(kind: str, *, length=1.3, n_nodes=209, radius=2.5e-3, margin=0.6):
+
+def channel_curve(kind: str, *, length=1.3, n_nodes=DEFAULT_N_NODES, radius=2.5e-3, margin=0.6):
     """The channel's centreline: the studied-form drawing built at ``radius`` (m), ``length`` (m),
-    ``n_nodes``, pairs pushed to ``2 radius (1 + margin)`` apart (see
+    ``n_nodes`` (default :data:`DEFAULT_N_NODES` = 601, see there why), pairs pushed to
+    ``2 radius (1 + margin)`` apart (see
     :func:`knotsim.knots.build.build_knot`), the second half-knot mirrored for the granny.
 
     Returns ``(x, hold_node)``: (n_nodes, 3) node positions (m) and the node of the hold hint."""
@@ -93,14 +101,17 @@ def _bc(name, nodes, times, disp, *, start=None, stop=None, twist=None) -> dict:
     return bc
 
 
-def channel_sequence(kind: str, *, length=1.3, n_nodes=209, radius=2.5e-3, margin=0.6, guide_every=4,
+def channel_sequence(kind: str, *, length=1.3, n_nodes=DEFAULT_N_NODES, radius=2.5e-3, margin=0.6, guide_every=4,
                      feed_speed=0.25, t_ramp=0.5, tol=1e-4, settle=0.3, pull=0.22, pull_speed=0.03,
                      hold_nodes=3, youngs=0.5e6, density=1000.0, damping=0.05, mu=0.3, dt=2e-3,
                      out_dt=0.05):
     """Full run configuration (dict) tying a single-rod ``kind`` = ``"reef"`` or ``"granny"`` in the
     studied form (module docstring); returns ``(config, info)``.
 
-    Channel: :func:`channel_curve` (``length``, ``n_nodes``, ``radius``, ``margin``); its vertices
+    Channel: :func:`channel_curve` (``length``, ``n_nodes``, ``radius``, ``margin``; ``n_nodes``
+    defaults to :data:`DEFAULT_N_NODES` = 601, the resolution at which the convergence table
+    ``validation/studies/convergence_tied/convergence.md`` was read: N = 209 and 301 are not
+    converged); its vertices
     are thinned to ``tol`` (m) for the grip paths. Feeding: every ``guide_every``-th node and both
     ends slide along the channel at ``feed_speed`` (m/s), reached and left over ``t_ramp`` (s,
     speed linear in time); then ``settle`` (s) at rest, grips still on. Tightening: grips
