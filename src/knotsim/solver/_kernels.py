@@ -7,9 +7,6 @@ from numba import njit
 
 #: largest finite float64
 _DBL_MAX = 1.7976931348623157e308
-#: the bits of a float64 without its sign, and those of +infinity
-_ABS_MASK = 0x7FFFFFFFFFFFFFFF
-_INF_BITS = 0x7FF0000000000000
 
 
 @njit(cache=True)
@@ -40,25 +37,22 @@ def split_max_abs(x, theta_mask):
     """``(max |x| over positions, max |x| over edge angles)`` for ``x`` ``(n,)`` float64 and
     ``theta_mask`` ``(n,)`` bool; ``(nan, nan)`` if any entry is NaN.
 
-    The absolute values are compared as integers (the bit patterns of non-negative floats are
-    ordered like the floats, a NaN's above infinity's), so that the two max-reductions vectorise:
-    1203 entries 1.1 µs against 5.0 µs for a float loop with an early exit for NaN."""
-    xi = x.view(np.int64)
-    mp = 0
-    mt = 0
-    for i in range(xi.shape[0]):
-        b = xi[i] & _ABS_MASK
-        t = b if theta_mask[i] else 0
-        p = 0 if theta_mask[i] else b
-        mt = max(mt, t)
-        mp = max(mp, p)
-    if mp > _INF_BITS or mt > _INF_BITS:
+    No early exit and the maxima as selects, so that the loop vectorises: 1203 entries 2.0 µs
+    against 5.0 µs for a loop returning at the first NaN (and it compiles in 0.1 s; comparing the
+    bit patterns as integers ran in 1.1 µs but took 0.6 s to compile)."""
+    mp = 0.0
+    mt = 0.0
+    nan = False
+    for i in range(x.shape[0]):
+        a = abs(x[i])
+        nan |= a != a
+        t = a if theta_mask[i] else 0.0
+        p = 0.0 if theta_mask[i] else a
+        mt = t if t > mt else mt
+        mp = p if p > mp else mp
+    if nan:
         return np.nan, np.nan
-    out = np.empty(2, np.int64)
-    out[0] = mp
-    out[1] = mt
-    f = out.view(np.float64)
-    return f[0], f[1]
+    return mp, mt
 
 
 @njit(cache=True)
