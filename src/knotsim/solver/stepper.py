@@ -295,8 +295,10 @@ class Stepper:
         #: Number of matrix factorisations so far.
         self.factorizations = 0
         self.last_solver = ""
-        #: Accumulated wall time (s) in force/energy evaluation, Jacobian assembly and linear solves.
-        self.timers = {"forces": 0.0, "assembly": 0.0, "linear_solve": 0.0}
+        #: Accumulated wall time (s) in force/energy evaluation, Jacobian assembly and linear solves
+        #: (``linear_solve``: factorisations, with their symbolic analyses, and solves;
+        #: ``factorization``: the factorisations' part of it).
+        self.timers = {"forces": 0.0, "assembly": 0.0, "linear_solve": 0.0, "factorization": 0.0}
 
     # -- assembly -------------------------------------------------------------------------
     def _diagonal(self, dt: float) -> tuple[np.ndarray, float]:
@@ -396,6 +398,7 @@ class Stepper:
     def _solve(self, rhs: np.ndarray) -> np.ndarray:
         """Solve with the last assembled Jacobian, factorising it first if it is new."""
         if self._needs_factor:
+            t0 = time.perf_counter()
             if self._system[0] == "banded":
                 _, ab, kl, ku, symmetric = self._system
                 self._banded.factorize(ab, kl, ku, symmetric)
@@ -406,6 +409,7 @@ class Stepper:
                 self._active = self._sparse
             self._needs_factor = False
             self.factorizations += 1
+            self.timers["factorization"] += time.perf_counter() - t0  # (part of linear_solve)
         return self._active.solve(rhs)
 
     def _where(self, system: _StepSystem, q: np.ndarray) -> str:
