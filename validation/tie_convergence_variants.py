@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 #: Variant tag -> keyword arguments of ``channel_sequence`` (everything else at its default).
@@ -47,30 +46,17 @@ def tie_variant(kind: str, tag: str, out_root: Path = OUT) -> dict:
     """Tie ``kind`` (``"reef"`` / ``"granny"``) with the variant ``tag`` of :data:`VARIANTS` into
     ``out_root/tied_<kind>_<tag>``; returns the tie's summary (as written to ``summary.json``)."""
     from knotsim._util.jsonio import read_json, write_json
-    from knotsim.knots.topology import analyze
     from knotsim.knots.tying.channel import channel_sequence
-    from knotsim.knots.tying.gap import half_knot_gap
-    from knotsim.knots.tying.run import EXPECTED, TyingResult, tying_sequence_path
-    from knotsim.runspec import RunSpec, run
+    from knotsim.knots.tying.run import tie_from_straight
 
     out = out_root / f"tied_{kind}_{tag}"
     if all((out / f).is_file() for f in ("checkpoint.npz", "summary.json")):
         return read_json(out / "summary.json")
     kw = VARIANTS[tag]
     cfg, _info = channel_sequence(kind, **kw)
-    cfg.setdefault("provenance", {}).update({"tying_sequence": kind, "channel_sequence_arguments": dict(kw)})
+    cfg.setdefault("provenance", {}).update({"channel_sequence_arguments": dict(kw)})
     out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    res = run(RunSpec(cfg, tying_sequence_path(kind).parent), out, progress=False)
-    wall = time.perf_counter() - t0
-    sim, log = res.simulation, res.log
-    x = sim.model.node_positions(sim.state.q)
-    topo = analyze([x])
-    pen = float(log["max_penetration_ratio"].max()) if "max_penetration_ratio" in log else 0.0
-    gap = half_knot_gap(x, float(cfg["rods"][0]["radius"]))
-    exp = EXPECTED[kind]
-    tr = TyingResult(kind, topo.knot_type, exp, topo.knot_type in exp, wall, float(sim.state.time), len(log),
-                     pen, out, topo, x, gap)
+    tr = tie_from_straight(kind, out, progress=False, config=cfg)
     summary = {**tr.summary(), "channel_sequence_arguments": dict(kw)}
     write_json(out / "summary.json", summary)
     for p in out.iterdir():

@@ -100,10 +100,13 @@ class TyingResult:
 
 
 def tie_from_straight(name: str, out_dir=None, overrides: dict | None = None,
-                      progress: bool | None = None) -> TyingResult:
+                      progress: bool | None = None, config: dict | None = None) -> TyingResult:
     """Run the shipped tying sequence ``name`` from the straight rod and identify the knot.
 
     ``overrides`` is merged into the configuration dict (e.g. ``{"run": {"output_interval": 0.1}}``).
+    ``config``: a run configuration dict to tie with instead of the shipped file of ``name`` (e.g. a
+    variant ``channel_sequence(name, n_nodes=401)[0]``; relative paths resolve beside the shipped
+    sequences); the knot is checked against ``name``'s expected types all the same.
     With ``out_dir`` the run files (trajectory, log, run.json, run.toml, checkpoint.npz) are
     written there, so that ``knotsim pull --geometry OUT_DIR`` loads the tied knot next. The knot
     type is :func:`knotsim.knots.topology.analyze` of the final centreline with its far-away
@@ -117,7 +120,7 @@ def tie_from_straight(name: str, out_dir=None, overrides: dict | None = None,
     from knotsim.knots.tying.gap import half_knot_gap
     from knotsim.runspec import RunSpec, run
 
-    cfg = load_tying_config(name)
+    cfg = load_tying_config(name) if config is None else config
     if overrides:
         cfg = _merge(cfg, overrides)
     cfg.setdefault("provenance", {}).update({"tying_sequence": name})
