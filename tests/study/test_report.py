@@ -77,6 +77,16 @@ def test_short_run_without_summaries_is_not_compared(tmp_path):
     assert diffs == ["simulated 2 s, not the full 13 s window"]
 
 
+def test_pulled_geometry_without_summaries_is_not_compared(tmp_path):
+    """No case summaries and a pulled geometry: its rope is unknown to the table, no comparison."""
+    _study(tmp_path, lambda p: {**_mean(p), "mean_window": 13.0}, sim_time=13.0)
+    df = pd.read_parquet(tmp_path / "results.parquet")
+    assert R.published_setup_differences(tmp_path, df) == []
+    df["geometry"] = "tied_reef"
+    diffs = R.published_setup_differences(tmp_path, df)
+    assert len(diffs) == 1 and diffs[0].startswith("geometry tied_reef")
+
+
 def test_round_off_is_not_plotted_and_one_figure_per_strength_metric(tmp_path):
     raw = {**RAW, "grid": {"knot": ["single_rod_granny", "single_rod_reef"], "overrides.mu": [0.1, 0.3]}}
     vals = iter([2.0, 1.9999999999999793, 2.0, 2.0000000000000004])

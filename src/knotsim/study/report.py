@@ -258,6 +258,11 @@ def published_setup_differences(study_dir: str | os.PathLike, df) -> list[str]:
         else:
             if row.get("kind") not in (None, "protocol"):
                 differ("kind", row.get("kind"), "protocol")
+            geometry = row.get("geometry")
+            if isinstance(geometry, str) and geometry and "geometry" not in diffs:
+                # a pulled geometry brings its own rope, which the results table does not record
+                diffs["geometry"] = (f"geometry {geometry} (its rope's parameters are not in the results "
+                                     "table, and its case directory is not there to read them from)")
             for k, ref in want.items():
                 v = row.get(f"overrides.{k}")
                 if v is not None and not (isinstance(v, float) and math.isnan(v)):
