@@ -113,17 +113,15 @@ class SparseSolver:
             raise LinearSolveError("Newton matrix has NaN or infinite entries")
         self._splu = None
         if self.method in ("auto", "fixed_lu"):
+            from knotsim.solver.lu import ZeroPivotError
+
             if self._key != pattern_id or self._lu is None:
                 self._lu = self._analyse(n, indptr, indices)
                 self._key = pattern_id
             try:
                 self._lu.factorize(data)
                 return
-            except ArithmeticError as exc:  # ZeroPivotError: fall back to a pivoting LU
-                from knotsim.solver.lu import ZeroPivotError
-
-                if not isinstance(exc, ZeroPivotError):
-                    raise
+            except ZeroPivotError:
                 self.fallbacks += 1
         import scipy.sparse as sp  # the pivoting fallback only: scipy is not loaded by a run otherwise
         from scipy.sparse.linalg import splu
