@@ -109,7 +109,9 @@ def run_study(
         Dask only: when the cluster has had no worker for this long (s), the cases still pending
         are recorded ``worker lost`` and the study ends instead of waiting for ever. A case whose
         worker leaves the cluster while running it (killed, with or without a nanny) is recorded
-        ``worker lost`` at once (within about a second); the other cases go on.
+        ``worker lost`` at once (within about a second); the other cases go on. A finished case
+        whose result stays unfetchable for this long (its worker left before the result was
+        fetched) is recorded ``worker lost`` too.
 
     A failing case (any exception) is recorded with outcome ``"failed"``, its error and traceback;
     the other cases go on. A worker process that dies takes only its case with it: the case is
@@ -295,7 +297,7 @@ def _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0,
             f = client.submit(execute_case, _payload(c), str(store.path.resolve()), str(spec.base_dir),
                               key=f"knotsim-case-{c.case_id}-{token}", pure=False, retries=0)
             futures[f] = c
-        loop.run(futures, lambda f: f.result(), _DaskWatch(client, worker_timeout, store.started))
+        loop.run(futures, lambda f: _dask_result(f, worker_timeout), _DaskWatch(client, worker_timeout, store.started))
     except BaseException:
         client.cancel(list(futures))
         store.write_results(cases, records)
@@ -307,6 +309,18 @@ def _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0,
 
 class DaskWorkerLost(RuntimeError):
     """The Dask worker running a case left the cluster, or no worker was left to run it."""
+
+
+def _dask_result(future, timeout: float):
+    """The result of a finished Dask ``future``, or :class:`DaskWorkerLost` when it cannot be had
+    within ``timeout`` s: a case that finished on a worker that then left the cluster (killed
+    before its result was fetched) has its result only on that worker, and fetching it would wait
+    for ever for a worker to recompute it."""
+    try:
+        return future.result(timeout=timeout)
+    except TimeoutError as exc:
+        raise DaskWorkerLost(f"no Dask worker gave the result of this finished case within {timeout:g} s "
+                             "(the worker holding it left the cluster)") from exc
 
 
 class _DaskWatch:
