@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from knotsim.contact._model_kernels import gap_summary, same_values
+from knotsim.contact._model_kernels import gap_summary
 
 
 def _reference(delta, pair_d, hmin, contact_range):
@@ -52,17 +52,3 @@ def test_gap_summary_of_no_pairs():
     e = np.zeros(0)
     n, min_gap, worst, ratio = gap_summary(e, e, e, 1e-3)
     assert (n, min_gap, worst, ratio) == (0, math.inf, 0, -math.inf)
-
-
-def test_same_values_is_array_equal():
-    a = np.linspace(0.0, 1.0, 11)
-    b = a.copy()
-    assert same_values(a, b)
-    b[7] = np.nextafter(b[7], 2.0)
-    assert not same_values(a, b)
-    assert not same_values(a, a[:10])
-    c = a.copy()
-    c[2] = np.nan
-    assert not same_values(c, c.copy()) and not np.array_equal(c, c.copy())
-    assert same_values(np.array([0.0]), np.array([-0.0]))
-

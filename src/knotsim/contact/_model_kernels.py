@@ -10,7 +10,7 @@ import math
 
 from numba import njit
 
-__all__ = ["gap_summary", "same_values"]
+__all__ = ["gap_summary"]
 
 
 @njit(cache=True)
@@ -51,14 +51,3 @@ def gap_summary(delta, pair_d, pair_hmin, contact_range):
     if gap_nan:
         min_gap = math.nan
     return n, min_gap, worst, best
-
-
-@njit(cache=True)
-def same_values(a, b):
-    """``numpy.array_equal(a, b)`` for two (n,) float64 arrays (NaN differs from everything)."""
-    if a.shape[0] != b.shape[0]:
-        return False
-    for i in range(a.shape[0]):
-        if not a[i] == b[i]:
-            return False
-    return True

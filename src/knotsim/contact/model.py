@@ -47,7 +47,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from knotsim.contact._model_kernels import gap_summary, same_values
+from knotsim.contact._model_kernels import gap_summary
 from knotsim.contact.assembly import (
     approach_forces,
     contact_evaluate_exact,
@@ -60,6 +60,7 @@ from knotsim.contact.options import ContactOptions, ContactSettings, StiffnessMo
 from knotsim.contact.swept import pass_through, swept_box_pairs
 from knotsim.errors import ConfigError
 from knotsim.geometry import exclusion
+from knotsim.solver._kernels import same_values
 
 #: Weight of the new target in the downward moving average of the adaptive stiffness (per step).
 STIFFNESS_RELAX = 0.02
