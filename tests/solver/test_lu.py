@@ -275,19 +275,62 @@ def test_random_patterns_hypothesis(n, density, seed, method, blocks):
     check(A, lu, rng)
 
 
-@pytest.mark.parametrize("w, r", [(1, 3), (3, 5), (4, 0), (6, 7), (8, 25), (13, 9), (16, 40), (32, 40)])
-def test_schur_kernel_matches_dense_product(w, r):
-    """Every path of the Schur-complement kernel (groups of 8 pivots, single pivots, BLAS for the
-    largest) against numpy, with zero ``L21`` entries."""
-    from knotsim.solver.lu.numeric import _GEMM_MIN, _schur
+@pytest.mark.parametrize(
+    "w, r", [(1, 3), (3, 5), (4, 1), (6, 7), (8, 1), (8, 7), (8, 15), (8, 25), (13, 9), (16, 40), (32, 40)]
+)
+def test_front_kernels_match_dense_elimination(w, r):
+    """Every path of the front elimination in ``mf_factorize`` (width 8; other widths with their
+    loops and BLAS for the largest Schur complements) against a dense elimination, on a dense
+    matrix planned as a front of width ``w`` and a root of width ``r``, with zero ``L21`` entries:
+    the panels in the padded layout, the update matrix on the stack, and the zero padding the solve
+    relies on."""
+    from knotsim.solver.lu.numeric import _GEMM_MIN, mf_factorize, padded_plan
+    from knotsim.solver.lu.symbolic import assembly_map
 
     rng = np.random.default_rng(w * 100 + r)
     m = w + r
-    F = rng.standard_normal((m, m))
-    L = rng.standard_normal((w, m))
-    L[:, w::3] = 0.0
-    S = np.full((r, r), np.nan)
-    _schur(F, L, S, w, r, np.empty(3 * m * m))
-    expect = F[w:, w:] - L[:, w:].T @ F[:w, w:]
-    assert np.allclose(S, expect, rtol=1e-13, atol=1e-13)
+    A = rng.standard_normal((m, m)) + m * np.eye(m)
+    A[w::3, :w] = 0.0
+    indptr = np.arange(0, m * m + 1, m, dtype=np.int64)
+    indices = np.tile(np.arange(m, dtype=np.int64), m)
+    data = A.T.ravel().copy()  # CSC of the dense matrix
+    iperm = np.arange(m, dtype=np.int64)
+    sf, rp, ri = np.array([0, w, m]), np.array([0, r, r]), np.arange(w, m)
+    sparent, nchild, rel = np.array([1, -1]), np.array([0, 1]), np.arange(r)
+    ap, asrc, aoff, _ = assembly_map(m, indptr, indices, iperm, sf, rp, ri)
+    ppoff, paoff, prel, rnp, runs, mf, ms = padded_plan(sf, rp, sparent, nchild, rel, ap, aoff)
+    PL, PU = np.full(ppoff[-1], np.nan), np.full(ppoff[-1], np.nan)
+    stack = np.full(ms, np.nan)
+    front, gbuf = np.full(mf * mf + 16, np.nan), np.full(max(3 * mf * mf, 256), np.nan)
+    cnorm = np.empty(m)
+    bad = mf_factorize(data, indptr, iperm, sf, rp, sparent, nchild, ppoff, ap, asrc, paoff, prel, rnp, runs,
+                       PL, PU, front, stack, np.zeros(2, np.int64), np.zeros(2, np.int64), gbuf, cnorm, 1e-13)
+    assert bad == -1
+    assert np.array_equal(cnorm, np.abs(A).max(axis=0))
+
+    def dense_lu(M):
+        L, U = np.eye(len(M)), M.copy()
+        for k in range(len(M)):
+            L[k + 1 :, k] = U[k + 1 :, k] / U[k, k]
+            U[k + 1 :, :] -= np.outer(L[k + 1 :, k], U[k, :])
+        return L, np.triu(U)
+
+    L11, U11 = dense_lu(A[:w, :w])
+    U12 = np.linalg.solve(L11, A[:w, w:])
+    L21 = np.linalg.solve(U11.T, A[w:, :w].T).T
+    S = A[w:, w:] - L21 @ U12  # the root's front: its entries of A and the update -L21 U12
+    wp, rq = (w + 7) // 8 * 8, (r + 15) // 16 * 16
+    mp = wp + rq
+    P_L, P_U = PL[: w * mp].reshape(w, mp), PU[: w * mp].reshape(w, mp)
+    iu = np.triu_indices(w)
+    assert np.allclose(P_U[:, :w][iu], U11[iu], rtol=1e-13, atol=1e-13)
+    assert np.allclose(P_L[:, :w][iu], np.where(np.eye(w, dtype=bool), U11, L11.T)[iu], rtol=1e-13, atol=1e-13)
+    assert np.allclose(P_U[:, wp : wp + r], U12, rtol=1e-13, atol=1e-13)
+    assert np.allclose(P_L[:, wp : wp + r], L21.T, rtol=1e-13, atol=1e-13)
+    assert np.all(P_U[:, wp + r :] == 0.0)
+    S_k = stack[: r * rq].reshape(r, rq)
+    assert np.allclose(S_k[:, :r], -L21 @ U12, rtol=1e-13, atol=1e-12)
+    assert np.all(S_k[:, r:] == 0.0)
+    _, U_S = dense_lu(S)  # the root: the LU of the Schur complement
+    assert np.allclose(np.diag(PU[ppoff[1] :].reshape(r, -1)), np.diag(U_S), rtol=1e-12)
     assert (r * r * w >= _GEMM_MIN) == (w == 32)

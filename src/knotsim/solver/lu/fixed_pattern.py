@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from knotsim.solver.lu.numeric import mf_factorize, mf_solve
+from knotsim.solver.lu.numeric import mf_factorize, mf_solve, padded_plan
 from knotsim.solver.lu.symbolic import (
     assembly_map,
     check_csc_pattern,
@@ -135,6 +135,15 @@ class FixedPatternLU:
         self._ap, self._asrc, self._aoff, self._colof = assembly_map(
             n, indptr, indices, iperm, self._sf, self._rp, self._ri
         )
+        (
+            self._ppoff,
+            self._paoff,
+            self._prel,
+            self._rnp,
+            self._runs,
+            pad_front,
+            pad_stack,
+        ) = padded_plan(self._sf, self._rp, self._sparent, self._nchild, self._rel, self._ap, self._aoff)
         self.n_supernodes = int(self._sf.size - 1)
         self.max_front = int(max_front)
         old = recycle.__dict__ if isinstance(recycle, FixedPatternLU) else {}
@@ -145,11 +154,11 @@ class FixedPatternLU:
                 return b
             return np.zeros(max(size, 1))
 
-        self._PL = buf("_PL", int(self._poff[-1]))
-        self._PU = buf("_PU", int(self._poff[-1]))
-        self._front = buf("_front", max_front * max_front)
-        self._gbuf = buf("_gbuf", 3 * max_front * max_front)
-        self._stack = buf("_stack", int(max_stack))
+        self._PL = buf("_PL", int(self._ppoff[-1]))
+        self._PU = buf("_PU", int(self._ppoff[-1]))
+        self._front = buf("_front", pad_front * pad_front + 16)  # + 16: see mf_factorize
+        self._gbuf = buf("_gbuf", max(3 * pad_front * pad_front, 256))
+        self._stack = buf("_stack", int(pad_stack))
         self._stk_off = np.zeros(max(max_depth, 1), np.int64)
         self._stk_sn = np.zeros(max(max_depth, 1), np.int64)
         self.perm = perm
@@ -185,16 +194,19 @@ class FixedPatternLU:
             raise ValueError(f"data: expected {self.nnz} values, got {data.shape[0]}")
         bad = mf_factorize(
             data,
-            self._colof,
+            self.indptr,
+            self.iperm,
             self._sf,
             self._rp,
             self._sparent,
             self._nchild,
-            self._rel,
-            self._poff,
+            self._ppoff,
             self._ap,
             self._asrc,
-            self._aoff,
+            self._paoff,
+            self._prel,
+            self._rnp,
+            self._runs,
             self._PL,
             self._PU,
             self._front,
@@ -208,8 +220,10 @@ class FixedPatternLU:
         if bad >= 0:
             s = int(np.searchsorted(self._sf, bad, side="right") - 1)
             k = bad - int(self._sf[s])
-            m = int(self._sf[s + 1] - self._sf[s] + self._rp[s + 1] - self._rp[s])
-            piv = float(self._front[k * m + k])
+            w = int(self._sf[s + 1] - self._sf[s])
+            r = int(self._rp[s + 1] - self._rp[s])
+            mp = ((w + 7) & ~7) + ((r + 15) & ~15)  # the padded front size (numeric.padded_plan)
+            piv = float(self._PU[int(self._ppoff[s]) + k * (mp + 1)])
             self.factorized = False
             raise ZeroPivotError.rejected(int(self.perm[bad]), piv, self._cnorm[bad], self.pivot_tol)
         self.factorized = True
@@ -223,10 +237,10 @@ class FixedPatternLU:
         if (out is None and self.factorized and type(rhs) is np.ndarray and rhs.dtype == np.float64
                 and rhs.shape == (self.n,)):  # the common case, without the general checks
             out = np.empty(self.n)
-            mf_solve(self.perm, self._sf, self._rp, self._ri, self._poff, self._PL, self._PU, rhs, out, self._y)
+            mf_solve(self.perm, self._sf, self._rp, self._ri, self._ppoff, self._PL, self._PU, rhs, out, self._y)
             return out
         b, out = self._rhs_and_out(rhs, out)
-        factors = (self.perm, self._sf, self._rp, self._ri, self._poff, self._PL, self._PU)
+        factors = (self.perm, self._sf, self._rp, self._ri, self._ppoff, self._PL, self._PU)
         if b.ndim == 1:
             mf_solve(*factors, b, out, self._y)
         else:
