@@ -154,7 +154,7 @@ def mf_factorize(
     its panels and writes its Schur complement ``F22 - L21 U12`` ``(r, pad16(r))`` straight onto
     ``stack`` (width 8: by blocks of 16 rows or columns; other widths: right-looking in ``front``).
     The panels at ``ppoff[s]`` are ``(w, mp)`` in the padded positions: ``PU[b, a] = U[b, a]`` (``a >= b``) and ``PL[b, a] =
-    L[a, b]`` (``a > b``) with the pivot ``PL[b, b] = U[b, b]``; the other entries are unused.
+    L[a, b]`` (``a > b``) and the inverse pivot ``PL[b, b] = 1 / U[b, b]``; the other entries are unused.
     ``gbuf`` is scratch. Returns ``-1`` on success or the permuted index ``f + k`` of the first
     bad pivot (its value is left in ``PU[ppoff[s] + k * (mp + 1)]``).
     """
@@ -243,7 +243,7 @@ def mf_factorize(
                 for j in range(8):
                     PU[_u(po + k * mp + j)] = gbuf[128 + k * 8 + j]
                     PL[_u(po + k * mp + j)] = gbuf[192 + j * 8 + k]
-                PL[_u(po + k * (mp + 1))] = gbuf[128 + k * 9]
+                PL[_u(po + k * (mp + 1))] = 1.0 / gbuf[128 + k * 9]
             # the coefficients of U11 (strictly upper u_pk = gbuf[128 + 8 p + k], inverse pivots d_k) and L11
             u01, u02, u12, u03, u13, u23 = gbuf[129], gbuf[130], gbuf[138], gbuf[131], gbuf[139], gbuf[147]
             u04, u14, u24, u34, u05, u15, u25, u35, u45 = gbuf[132], gbuf[140], gbuf[148], gbuf[156], gbuf[133], gbuf[141], gbuf[149], gbuf[157], gbuf[165]
@@ -339,7 +339,7 @@ def mf_factorize(
                     PL[_u(pk + i)] = front[_u(i * mp + k)]
                 for i in range(wp, mp):
                     PL[_u(pk + i)] = front[_u(i * mp + k)]
-                PL[_u(pk + k)] = front[_u(ok + k)]
+                PL[_u(pk + k)] = 1.0 / front[_u(ok + k)]
             if r == 0:
                 pass
             elif r * r * w >= _GEMM_MIN:
@@ -425,25 +425,25 @@ def _backward8(PL, PU, po, mp, rq, y, f, u):
         t5 += PU[_u(o5 + 8 + a)] * ua
         t6 += PU[_u(o6 + 8 + a)] * ua
         t7 += PU[_u(o7 + 8 + a)] * ua
-    y7 = (y[_u(f + 7)] - t7) / PL[_u(o7 + 7)]
-    y6 = (y[_u(f + 6)] - t6 - PU[_u(o6 + 7)] * y7) / PL[_u(o6 + 6)]
-    y5 = (y[_u(f + 5)] - t5 - (PU[_u(o5 + 6)] * y6 + PU[_u(o5 + 7)] * y7)) / PL[_u(o5 + 5)]
-    y4 = (y[_u(f + 4)] - t4 - ((PU[_u(o4 + 5)] * y5 + PU[_u(o4 + 6)] * y6) + PU[_u(o4 + 7)] * y7)) / PL[_u(o4 + 4)]
+    y7 = (y[_u(f + 7)] - t7) * PL[_u(o7 + 7)]
+    y6 = (y[_u(f + 6)] - t6 - PU[_u(o6 + 7)] * y7) * PL[_u(o6 + 6)]
+    y5 = (y[_u(f + 5)] - t5 - (PU[_u(o5 + 6)] * y6 + PU[_u(o5 + 7)] * y7)) * PL[_u(o5 + 5)]
+    y4 = (y[_u(f + 4)] - t4 - ((PU[_u(o4 + 5)] * y5 + PU[_u(o4 + 6)] * y6) + PU[_u(o4 + 7)] * y7)) * PL[_u(o4 + 4)]
     y3 = (
         y[_u(f + 3)] - t3 - ((PU[_u(o3 + 4)] * y4 + PU[_u(o3 + 5)] * y5) + (PU[_u(o3 + 6)] * y6 + PU[_u(o3 + 7)] * y7))
-    ) / PL[_u(o3 + 3)]
+    ) * PL[_u(o3 + 3)]
     y2 = (
         y[_u(f + 2)] - t2 - (((PU[_u(o2 + 3)] * y3 + PU[_u(o2 + 4)] * y4) + (PU[_u(o2 + 5)] * y5 + PU[_u(o2 + 6)] * y6))
                              + PU[_u(o2 + 7)] * y7)
-    ) / PL[_u(o2 + 2)]
+    ) * PL[_u(o2 + 2)]
     y1 = (
         y[_u(f + 1)] - t1 - (((PU[_u(o1 + 2)] * y2 + PU[_u(o1 + 3)] * y3) + (PU[_u(o1 + 4)] * y4 + PU[_u(o1 + 5)] * y5))
                              + (PU[_u(o1 + 6)] * y6 + PU[_u(o1 + 7)] * y7))
-    ) / PL[_u(o1 + 1)]
+    ) * PL[_u(o1 + 1)]
     y0 = (
         y[_u(f)] - t0 - (((PU[_u(po + 1)] * y1 + PU[_u(po + 2)] * y2) + (PU[_u(po + 3)] * y3 + PU[_u(po + 4)] * y4))
                          + ((PU[_u(po + 5)] * y5 + PU[_u(po + 6)] * y6) + PU[_u(po + 7)] * y7))
-    ) / PL[_u(po)]
+    ) * PL[_u(po)]
     y[_u(f)], y[_u(f + 1)], y[_u(f + 2)], y[_u(f + 3)] = y0, y1, y2, y3
     y[_u(f + 4)], y[_u(f + 5)], y[_u(f + 6)], y[_u(f + 7)] = y4, y5, y6, y7
 
@@ -516,6 +516,6 @@ def mf_solve(perm, sf, rp, ri, ppoff, PL, PU, b, x, y):
             dot = 0.0
             for a in range(rq):
                 dot += PU[_u(ob + wp + a)] * u[_u(a)]
-            y[_u(f + bb)] = (acc - dot) / PL[_u(ob + bb)]
+            y[_u(f + bb)] = (acc - dot) * PL[_u(ob + bb)]
     for j in range(n):
         x[_u(perm[_u(j)])] = y[_u(j)]
