@@ -86,3 +86,49 @@ def test_safeguard_with_modified_newton(reuse):
     for K, c, f0, q0 in _cases(100, seed=2):
         fails += not newton_solve(SpringWithSteepCoupling(K, c, f0), q0, 50, reuse_jacobian=reuse).converged
     assert fails == 0
+
+
+
+class _Cubic:
+    """``r(q) = q + q^3 - 2`` (root 1) with tolerances ``force_tol``, ``step_tol``; counts evaluations."""
+
+    def __init__(self, force_tol, step_tol):
+        self.force_tol, self.step_tol, self.evaluations, self.merit = force_tol, step_tol, 0, float("nan")
+
+    def residual(self, q, want_jacobian):
+        self.evaluations += 1
+        self.merit = 0.5 * q[0] ** 2 + 0.25 * q[0] ** 4 - 2.0 * q[0]
+        if want_jacobian:
+            self.J = 1.0 + 3.0 * q[0] ** 2
+        return np.array([q[0] + q[0] ** 3 - 2.0])
+
+    def solve(self, rhs):
+        return rhs / self.J
+
+    def residual_norm(self, r):
+        return abs(float(r[0])) / self.force_tol
+
+    def step_norm(self, dq):
+        return abs(float(dq[0])) / self.step_tol
+
+
+def test_stops_at_an_iterate_whose_correction_is_within_tolerance():
+    """Once the residual is within tolerance, a correction within the step tolerance ends the solve
+    at the current iterate: the result is that Newton iterate itself (not the corrected point), its
+    residual the evaluated one, with one residual evaluation per iteration plus the start's."""
+    q, iterates = 3.0, []
+    for _ in range(12):  # plain Newton by hand (full steps: the cubic is convex here)
+        iterates.append(q)
+        q -= (q + q**3 - 2.0) / (1.0 + 3.0 * q * q)
+    # tolerances where the iterate k has a residual within tolerance but its last step is not,
+    # while the correction from it is
+    k = next(i for i in range(1, 12) if abs(iterates[i + 1] - iterates[i]) < 1e-7)
+    step_tol = 0.5 * (abs(iterates[k + 1] - iterates[k]) + abs(iterates[k] - iterates[k - 1]))
+    force_tol = 1.5 * abs(iterates[k] + iterates[k] ** 3 - 2.0)
+    assert abs(iterates[k] - iterates[k - 1]) > step_tol > abs(iterates[k + 1] - iterates[k])
+    sys_ = _Cubic(force_tol, step_tol)
+    res = newton_solve(sys_, np.array([3.0]), 50)
+    assert res.converged and res.iterations == k
+    assert res.q[0] == iterates[k]
+    assert res.residual == pytest.approx(1.0 / 1.5, rel=1e-12) and res.step < 1.0
+    assert sys_.evaluations == k + 1

@@ -44,7 +44,8 @@ class NewtonResult:
     """Outcome of :func:`newton_solve`.
 
     ``residual`` and ``step`` are in tolerance units (converged means ``residual <= 1`` and
-    ``step <= 1``, or ``residual <= 0.01``, or ``residual <= 10`` with ``step <= 0.01`` when
+    ``step <= 1``, ``step`` being the last step taken or the Newton correction computed at ``q``
+    (then not taken), or ``residual <= 0.01``, or ``residual <= 10`` with ``step <= 0.01`` when
     round-off stops the residual from falling further); ``reason`` says why it stopped when not
     converged.
     """
@@ -66,7 +67,10 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
     Each iteration solves ``J dq = -r`` and accepts ``q + a dq`` with the largest
     ``a = 1, 1/2, ...`` (at most ``max_cuts`` halvings) that reduces either the residual norm or the
     system's incremental potential ``merit`` (Armijo condition with slope ``r . dq``); if none does,
-    the smallest step is taken. With ``reuse_jacobian`` (modified Newton), the factorised Jacobian
+    the smallest step is taken. The solve stops at an iterate whose residual is within tolerance
+    once the last step or the correction just solved for is within its tolerance (the correction is
+    then not applied: the iterate differs from the Newton fixed point by about that correction, and
+    its residual, already evaluated, needs no further evaluation). With ``reuse_jacobian`` (modified Newton), the factorised Jacobian
     is kept for the next iteration as long as each iteration cuts the residual norm by at least
     ``1/reuse_ratio`` without line-search cuts; otherwise it is re-assembled at the new point.
     (Reusing the factorisation across time steps was measured too: fewer factorisations but more
@@ -143,6 +147,12 @@ def _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, r
         dq = system.solve(-r)
         if not all_finite(dq):
             return NewtonResult(q, False, it, rn, step, cuts_total, "linear solve gave a non-finite step")
+        if rn <= 1.0:
+            # converged at q: residual within tolerance and the Newton correction from it too (q + dq
+            # would differ from q by less than the step tolerance; its residual is not needed)
+            correction = system.step_norm(dq)
+            if correction <= 1.0:
+                return NewtonResult(q, True, it, rn, correction, cuts_total)
         a = 1.0
         if safeguarded:
             n0 = norm2(r)

@@ -85,8 +85,9 @@ class SolverOptions:
     - ``max_iterations``: Newton iterations per attempt;
     - ``force_tol`` (N) and ``moment_tol`` (N m): residual tolerances; default
       ``1e-9 EI/l^2`` and that times the mean edge length ``l`` (smallest over rods); a step is
-      converged when the residual is below tolerance and the last Newton step below ``step_tol``
-      (or the residual below 1 % of tolerance);
+      converged when the residual is below tolerance and the last Newton step, or the Newton
+      correction computed at the current iterate, below ``step_tol`` (or the residual below 1 % of
+      tolerance);
     - ``step_tol`` (m): Newton step tolerance, default ``1e-6 l``; ``angle_tol`` (rad) likewise 1e-6;
     - ``grow_after``: consecutive easy steps (at most ``easy_iterations`` iterations) before the step
       doubles back towards ``dt``;
