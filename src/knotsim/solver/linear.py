@@ -15,6 +15,7 @@ import numpy as np
 from knotsim.errors import KnotsimError
 from knotsim.solver._kernels import all_finite
 from knotsim.solver.banded import ldlt_banded_factor, ldlt_banded_substitute
+from knotsim.solver.lu import FixedPatternLU, ZeroPivotError
 
 
 class LinearSolveError(KnotsimError, ArithmeticError):
@@ -92,8 +93,6 @@ class SparseSolver:
         self._order = None  # (perm, nnz_L, nnz_A) of the last fresh ordering
 
     def _analyse(self, n: int, indptr: np.ndarray, indices: np.ndarray):
-        from knotsim.solver.lu import FixedPatternLU
-
         blocks = list(self.blocks) if self.blocks is not None else 4
         self.analyses += 1
         nnz = int(indptr[n])
@@ -113,8 +112,6 @@ class SparseSolver:
             raise LinearSolveError("Newton matrix has NaN or infinite entries")
         self._splu = None
         if self.method in ("auto", "fixed_lu"):
-            from knotsim.solver.lu import ZeroPivotError
-
             if self._key != pattern_id or self._lu is None:
                 self._lu = self._analyse(n, indptr, indices)
                 self._key = pattern_id
