@@ -19,6 +19,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from knotsim.solver.lu.symbolic import update_stack_peak
+
 __all__ = ["column_max_abs", "mf_factorize", "mf_solve", "padded_plan"]
 
 _u = np.uint64  # unsigned index cast (see the note on loop style below)
@@ -87,20 +89,7 @@ def padded_plan(sf, rp, sparent, nchild, rel, ap, aoff):
                     nr += 1
                 runs[nr - 1, 2] += 1
         rnp[s + 1] = nr
-    depth = 0
-    size = 0
-    max_stack = 1
-    stk = np.empty(ns + 1, np.int64)
-    for s in range(ns):
-        for _t in range(nchild[s]):
-            depth -= 1
-            size -= stk[depth]
-        if sparent[s] != -1:
-            r = rp[s + 1] - rp[s]
-            stk[depth] = r * ((r + 15) & ~15)
-            size += stk[depth]
-            depth += 1
-            max_stack = max(max_stack, size)
+    max_stack = max(1, update_stack_peak(rp, sparent, nchild, 16)[0])  # updates stored (r, pad16(r))
     return ppoff, paoff, prel, rnp, runs[:nr].copy(), max_front, max_stack
 
 

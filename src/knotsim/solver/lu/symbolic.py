@@ -284,7 +284,17 @@ def supernodes(n, parent, Lp, Li, nrelax, relax_frac):
                 rel[q] = g - fp
             else:
                 rel[q] = wp + _find(ri, rp[p], rp[p + 1], g) - rp[p]
-    # stack of update matrices (postorder: the children of s are on top when s is processed)
+    max_stack, max_depth = update_stack_peak(rp, sparent, nchild, 1)
+    return sf, rp, ri, sparent, nchild, rel, poff, max_front, max_stack, max_depth
+
+
+@njit(cache=True)
+def update_stack_peak(rp, sparent, nchild, row_block):
+    """Peak size (floats) and depth of the stack of update matrices of a multifrontal factorisation
+    in postorder (the children of a supernode are on top when it is processed): every supernode
+    ``s`` with a parent pushes its ``r = rp[s+1] - rp[s]`` update rows, each ``r`` long rounded up
+    to a multiple of ``row_block`` (1: dense ``(r, r)``), after popping its ``nchild[s]`` children."""
+    ns = rp.shape[0] - 1
     depth = 0
     size = 0
     max_stack = 0
@@ -294,16 +304,16 @@ def supernodes(n, parent, Lp, Li, nrelax, relax_frac):
         for _t in range(nchild[s]):
             depth -= 1
             size -= stk[depth]
-        r = rp[s + 1] - rp[s]
         if sparent[s] != -1:
-            stk[depth] = r * r
+            r = rp[s + 1] - rp[s]
+            stk[depth] = r * (((r + row_block - 1) // row_block) * row_block)
+            size += stk[depth]
             depth += 1
-            size += r * r
             if size > max_stack:
                 max_stack = size
             if depth > max_depth:
                 max_depth = depth
-    return sf, rp, ri, sparent, nchild, rel, poff, max_front, max_stack, max_depth
+    return max_stack, max_depth
 
 
 @njit(cache=True)
