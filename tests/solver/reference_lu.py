@@ -18,10 +18,25 @@ import numpy as np
 from numba import njit
 
 from knotsim.solver.lu import FixedPatternLU, ZeroPivotError
-from knotsim.solver.lu.numeric import column_max_abs
 from knotsim.solver.lu.symbolic import check_csc_pattern, etree, l_counts, ordered_pattern
 
 __all__ = ["UpLookingLU"]
+
+
+@njit(cache=True)
+def column_max_abs(data, colof, cnorm):
+    """``cnorm[j] = max |data[p]|`` over the entries ``p`` with permuted column ``colof[p] == j``.
+
+    ``data`` ``(nnz,)`` values, ``colof`` ``(nnz,)`` permuted column of each value, ``cnorm``
+    ``(n,)`` output (0 for an empty column; NaN values are skipped by the comparison).
+    """
+    for j in range(cnorm.shape[0]):
+        cnorm[j] = 0.0
+    for p in range(data.shape[0]):
+        a = abs(data[p])
+        c = colof[p]
+        if a > cnorm[c]:
+            cnorm[c] = a
 
 
 @njit(cache=True)

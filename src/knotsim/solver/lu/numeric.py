@@ -21,25 +21,9 @@ from numba import njit
 
 from knotsim.solver.lu.symbolic import update_stack_peak
 
-__all__ = ["column_max_abs", "mf_factorize", "mf_solve", "padded_plan"]
+__all__ = ["mf_factorize", "mf_solve", "padded_plan"]
 
 _u = np.uint64  # unsigned index cast (see the note on loop style below)
-
-
-@njit(cache=True)
-def column_max_abs(data, colof, cnorm):
-    """``cnorm[j] = max |data[p]|`` over the entries ``p`` with permuted column ``colof[p] == j``.
-
-    ``data`` ``(nnz,)`` values, ``colof`` ``(nnz,)`` permuted column of each value, ``cnorm``
-    ``(n,)`` output (0 for an empty column; NaN values are skipped by the comparison).
-    """
-    for j in range(cnorm.shape[0]):
-        cnorm[j] = 0.0
-    for p in range(data.shape[0]):
-        a = abs(data[_u(p)])
-        c = _u(colof[_u(p)])
-        if a > cnorm[c]:
-            cnorm[c] = a
 
 
 @njit(cache=True)
@@ -138,8 +122,8 @@ def mf_factorize(
 
     Each supernode ``s`` (width ``w``, ``r`` other rows, padded size ``mp``) assembles its padded
     row-major front ``F`` ``(mp, mp)`` in ``front`` from ``data`` ``(nnz,)`` (CSC values with
-    pointers ``indptr``; the maxima of its columns go to ``cnorm[iperm[c]]`` first, as
-    :func:`column_max_abs`) and its children's update matrices, eliminates its ``w`` pivots into
+    pointers ``indptr``; the largest ``|value|`` of every column ``c`` goes to ``cnorm[iperm[c]]``
+    first, for the pivot test, NaN values skipped) and its children's update matrices, eliminates its ``w`` pivots into
     its panels and writes its Schur complement ``F22 - L21 U12`` ``(r, pad16(r))`` straight onto
     ``stack`` (width 8: by blocks of 16 rows or columns; other widths: right-looking in ``front``).
     The panels at ``ppoff[s]`` are ``(w, mp)`` in the padded positions: ``PU[b, a] = U[b, a]`` (``a >= b``) and ``PL[b, a] =
@@ -148,7 +132,7 @@ def mf_factorize(
     bad pivot (its value is left in ``PU[ppoff[s] + k * (mp + 1)]``).
     """
     ns = sf.shape[0] - 1
-    for c in range(indptr.shape[0] - 1):  # column maxima (as column_max_abs), four at a time
+    for c in range(indptr.shape[0] - 1):  # column maxima, four at a time
         m0 = m1 = m2 = m3 = 0.0
         p = indptr[c]
         e = indptr[c + 1]
