@@ -228,6 +228,35 @@ def test_exactly_singular_2x2_block(method):
 
 
 @pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("clique", [2, 8, 11])
+def test_rejected_pivot_reports_its_value_and_column(method, clique):
+    """The error names the column and the value of the pivot that was rejected: a dense
+    ``clique x clique`` block (one front of that width) holding ``[[1, 1], [1, 1 + 2^-50]]`` plus
+    the identity, among well-conditioned dense 8 x 8 blocks, in natural order: the second pivot of
+    the pair is ``2^-50`` (below ``1e-13`` of its column) whatever the padded layout."""
+    blocks = [np.eye(8) * 8.0 + np.random.default_rng(k).standard_normal((8, 8)) for k in range(3)]
+    bad = np.eye(clique)
+    bad[:2, :2] = [[1.0, 1.0], [1.0, 1.0 + 2.0**-50]]
+    n = 24 + clique
+    dense = np.zeros((n, n))
+    for k, b in enumerate(blocks):
+        dense[8 * k : 8 * k + 8, 8 * k : 8 * k + 8] = b
+    dense[24:, 24:] = bad
+    mask = np.zeros((n, n), bool)
+    for k in range(3):
+        mask[8 * k : 8 * k + 8, 8 * k : 8 * k + 8] = True
+    mask[24:, 24:] = True  # the whole block is in the pattern (explicit zeros included)
+    rows, cols = np.nonzero(mask.T)
+    A = sp.csc_matrix((dense.T[rows, cols], (cols, rows)), shape=(n, n))
+    assert A.nnz == mask.sum()
+    lu = LU_CLASSES[method].from_matrix(A, ordering="natural")
+    with pytest.raises(ZeroPivotError) as info:
+        lu.factorize(A.data)
+    assert info.value.column == 25
+    assert info.value.pivot == pytest.approx(2.0**-50, rel=1e-6, abs=0.0)
+
+
+@pytest.mark.parametrize("method", METHODS)
 def test_n_equal_one(method):
     lu = LU_CLASSES[method](1, np.array([0, 1]), np.array([0]))
     assert np.allclose(lu.factorize_solve(np.array([4.0]), np.array([2.0])), [0.5])

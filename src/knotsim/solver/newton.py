@@ -70,8 +70,8 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
     the smallest step is taken. The solve stops at an iterate whose residual is within tolerance
     once the last step or the correction just solved for is within its tolerance (the correction is
     then not applied: the iterate differs from the Newton fixed point by about that correction, and
-    its residual, already evaluated, needs no further evaluation). With ``reuse_jacobian`` (modified Newton), the factorised Jacobian
-    is kept for the next iteration as long as each iteration cuts the residual norm by at least
+    its residual, already evaluated, needs no further evaluation). With ``reuse_jacobian``
+    (modified Newton), the factorised Jacobian is kept for the next iteration as long as each iteration cuts the residual norm by at least
     ``1/reuse_ratio`` without line-search cuts; otherwise it is re-assembled at the new point.
     (Reusing the factorisation across time steps was measured too: fewer factorisations but more
     iterations, and no gain per step; see ``docs/performance.md``.)

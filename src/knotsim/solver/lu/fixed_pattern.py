@@ -120,30 +120,12 @@ class FixedPatternLU:
             parent = etree(n, up, ui)
         self.parent = parent
         self.Lp, self.Li = l_pattern(n, up, ui, parent)
-        (
-            self._sf,
-            self._rp,
-            self._ri,
-            self._sparent,
-            self._nchild,
-            self._rel,
-            self._poff,
-            max_front,
-            max_stack,
-            max_depth,
-        ) = supernodes(n, parent, self.Lp, self.Li, int(nrelax), float(relax_frac))
-        self._ap, self._asrc, self._aoff, self._colof = assembly_map(
-            n, indptr, indices, iperm, self._sf, self._rp, self._ri
-        )
-        (
-            self._ppoff,
-            self._paoff,
-            self._prel,
-            self._rnp,
-            self._runs,
-            pad_front,
-            pad_stack,
-        ) = padded_plan(self._sf, self._rp, self._sparent, self._nchild, self._rel, self._ap, self._aoff)
+        # the unpadded panel offsets, relative row maps and front offsets feed only the padded plan
+        (self._sf, self._rp, self._ri, self._sparent, self._nchild, rel, _poff, max_front, _max_stack,
+         max_depth) = supernodes(n, parent, self.Lp, self.Li, int(nrelax), float(relax_frac))
+        self._ap, self._asrc, aoff, _colof = assembly_map(n, indptr, indices, iperm, self._sf, self._rp, self._ri)
+        (self._ppoff, self._paoff, self._prel, self._rnp, self._runs, pad_front,
+         pad_stack) = padded_plan(self._sf, self._rp, self._sparent, self._nchild, rel, self._ap, aoff)
         self.n_supernodes = int(self._sf.size - 1)
         self.max_front = int(max_front)
         old = recycle.__dict__ if isinstance(recycle, FixedPatternLU) else {}
@@ -221,8 +203,7 @@ class FixedPatternLU:
             s = int(np.searchsorted(self._sf, bad, side="right") - 1)
             k = bad - int(self._sf[s])
             w = int(self._sf[s + 1] - self._sf[s])
-            r = int(self._rp[s + 1] - self._rp[s])
-            mp = ((w + 7) & ~7) + ((r + 15) & ~15)  # the padded front size (numeric.padded_plan)
+            mp = int(self._ppoff[s + 1] - self._ppoff[s]) // w  # the panels are (w, mp)
             piv = float(self._PU[int(self._ppoff[s]) + k * (mp + 1)])
             self.factorized = False
             raise ZeroPivotError.rejected(int(self.perm[bad]), piv, self._cnorm[bad], self.pivot_tol)
