@@ -42,6 +42,32 @@ def test_run_of_2t_equals_t_continued_for_t_bit_for_bit(tmp_path):
     assert full.log["k_c"].iloc[-1] == cont.log["k_c"].iloc[-1]
 
 
+@pytest.mark.parametrize("linear_solver", ["sparse", "banded"])
+def test_continuation_starts_from_the_jacobian_the_uninterrupted_run_had(tmp_path, linear_solver):
+    """A step may start from the previous step's factorised Jacobian
+    (``SolverOptions.jacobian_across_steps``); the checkpoint keeps that Jacobian, so the continued
+    run takes the same first step. The runs are split after steps that converged in one iteration
+    (the next one starts from their Jacobian), where a continuation that assembled a fresh Jacobian
+    would differ in the last bits."""
+    from knotsim.io.checkpoint import read_checkpoint
+
+    data = RunSpec.load(EXAMPLES / "crossing_rods.toml").to_dict()
+    data["solver"]["linear_solver"] = linear_solver
+    spec = RunSpec.from_dict(data)
+    total = 0.25
+    full = run(spec, tmp_path / "full", duration=total)
+    one = full.log[(full.log["iterations"] == 1) & (full.log["time"] > 0.1) & (full.log["time"] < total - 0.02)]
+    assert len(one) >= 2, "no steps of one iteration to split at"
+    for k, first in enumerate(one["time"].iloc[[0, -1]]):
+        run(spec, tmp_path / f"first{k}", duration=float(first))
+        meta, _ = read_checkpoint(tmp_path / f"first{k}" / "checkpoint.npz").section("stepper")
+        assert meta.get("jacobian_kind") == linear_solver and meta["last_iterations"] == 1
+        cont = run(RunSpec.load(tmp_path / f"first{k}" / "run.toml"), tmp_path / f"cont{k}",
+                   duration=total - float(first), continue_from=tmp_path / f"first{k}")
+        assert cont.state.time == pytest.approx(full.state.time, abs=1e-12)
+        np.testing.assert_array_equal(cont.state.q, full.state.q)
+
+
 def test_continuing_without_the_checkpoint_differs(tmp_path):
     """The test above can fail: starting the second half from the positions alone (no predictor
     memory, no contact stiffness, no adaptive state) does not give the same answer."""

@@ -61,7 +61,8 @@ class NewtonResult:
 
 def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 25,
                  line_search: bool = True, max_cuts: int = 8, reuse_jacobian: bool = False,
-                 reuse_ratio: float = 0.25, stall_iterations: int = 10, safeguard_cuts: int = 30) -> NewtonResult:
+                 reuse_ratio: float = 0.25, stall_iterations: int = 10, safeguard_cuts: int = 30,
+                 jacobian_at_start: bool = True) -> NewtonResult:
     """Solve ``residual(q) = 0`` from ``q0`` (prescribed unknowns already set in ``q0``).
 
     Each iteration solves ``J dq = -r`` and accepts ``q + a dq`` with the largest
@@ -71,10 +72,12 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
     once the last step or the correction just solved for is within its tolerance (the correction is
     then not applied: the iterate differs from the Newton fixed point by about that correction, and
     its residual, already evaluated, needs no further evaluation). With ``reuse_jacobian``
-    (modified Newton), the factorised Jacobian is kept for the next iteration as long as each iteration cuts the residual norm by at least
-    ``1/reuse_ratio`` without line-search cuts; otherwise it is re-assembled at the new point.
-    (Reusing the factorisation across time steps was measured too: fewer factorisations but more
-    iterations, and no gain per step; see ``docs/performance.md``.)
+    (modified Newton), the factorised Jacobian is kept for the next iteration as long as each
+    iteration cuts the residual norm by at least ``1/reuse_ratio`` without line-search cuts;
+    otherwise it is re-assembled at the new point. With ``reuse_jacobian`` and not
+    ``jacobian_at_start``, the first iteration solves with the Jacobian the system already holds
+    factorised (the caller's previous solve, e.g. the previous time step's) instead of assembling
+    one at ``q0``; the same rule then decides when it is re-assembled.
     Accepting a decrease of the potential lets Newton take the full
     steps that stiff stretching makes look bad in residual norm (a bending step raises the stretching
     residual before the next iteration removes it).
@@ -92,7 +95,7 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
     """
     try:
         return _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, reuse_ratio,
-                       stall_iterations, safeguard_cuts)
+                       stall_iterations, safeguard_cuts, jacobian_at_start)
     except ArithmeticError as exc:  # ZeroDivisionError in a kernel, FloatingPointError, OverflowError
         return NewtonResult(q0, False, 0, np.inf, np.inf, 0,
                             f"numerical failure in a Newton trial ({type(exc).__name__}: {exc})")
@@ -116,11 +119,11 @@ class _Trial:
 
 
 def _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, reuse_ratio, stall_iterations,
-            safeguard_cuts) -> NewtonResult:
+            safeguard_cuts, jacobian_at_start=True) -> NewtonResult:
     norm2 = getattr(system, "residual_norm2", None) or (lambda r: float(np.linalg.norm(r)))
     trial = _Trial(system)
     q = q0.copy()
-    r = system.residual(q, True)
+    r = system.residual(q, jacobian_at_start or not reuse_jacobian)
     rn = system.residual_norm(r)
     step = np.inf
     cuts_total = 0

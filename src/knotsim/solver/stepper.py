@@ -28,6 +28,7 @@ from knotsim.solver._kernels import (
     same_values,
     split_max_abs,
 )
+from knotsim.solver.diagnosis import largest_residual_at
 from knotsim.solver.linear import BandedSolver, LinearSolveError, SparseSolver
 from knotsim.solver.newton import newton_solve
 from knotsim.solver.state import State
@@ -98,7 +99,12 @@ class SolverOptions:
       ``"velocity"`` when there is no previous step), ``"velocity"`` (``q_n + dt v_n``) or
       ``"previous"`` (``q_n``);
     - ``jacobian_reuse``: modified Newton, keeping the factorised Jacobian while iterations converge
-      fast (see :func:`~knotsim.solver.newton.newton_solve`).
+      fast (see :func:`~knotsim.solver.newton.newton_solve`);
+    - ``jacobian_across_steps`` (with ``jacobian_reuse``): a step starts from the previous step's
+      factorised Jacobian, instead of assembling and factorising one at its start, when that step
+      converged in one iteration and the step size, the constrained unknowns and the interactions'
+      block pattern are unchanged (the within-step rule above then refreshes it when it stops
+      contracting fast). Checkpoints keep that Jacobian, so that continued runs stay bit for bit.
     """
 
     dt: float = 1e-3
@@ -114,6 +120,7 @@ class SolverOptions:
     linear_solver: LinearSolver | str = LinearSolver.AUTO
     predictor: Predictor | str = Predictor.ACCELERATION
     jacobian_reuse: bool = True
+    jacobian_across_steps: bool = True
 
     def validate(self) -> None:
         if not (isinstance(self.dt, int | float) and self.dt > 0 and math.isfinite(self.dt)):
@@ -216,7 +223,7 @@ class _StepSystem:
         self.last_full_residual = r_full
         if want_jacobian:
             t1 = time.perf_counter()
-            s._assemble(self.diag, inter_blocks, self.fixed)
+            s._assemble(self.diag, inter_blocks, self.fixed, None if self.static else self.dt)
             s.timers["assembly"] += time.perf_counter() - t1
         return r
 
@@ -287,6 +294,13 @@ class Stepper:
         self._active = None
         self._data = np.zeros(0)
         self._constrained = None  # (pattern id, fixed mask, zero slots, one slots)
+        #: ``(interaction pattern key, dt, fixed mask)`` the last assembled Jacobian was built for
+        #: (dt None for a static solve; the key None for a Jacobian restored from a checkpoint, whose
+        #: interaction blocks are then in ``_restored_blocks``)
+        self._assembled_for = None
+        self._restored_blocks = None
+        #: Newton iterations of the last accepted step (None after a failure or a static solve)
+        self._last_iterations = None
         self._diag_cache = None  # (dt, diagonal mass/dt^2 + damping/dt, its largest position entry)
         #: ``(q, frame source)`` of the last elastic evaluation (the frames the elastic object holds)
         self._frames_at = None
@@ -327,10 +341,12 @@ class Stepper:
             self._bw_key = key
         return inter_dofs, key, self._bw
 
-    def _assemble(self, diag, inter_blocks, fixed) -> None:
+    def _assemble(self, diag, inter_blocks, fixed, dt) -> None:
         m = self.model
         el = self.elastic
         inter_dofs, key, bw = self._interaction_pattern()
+        self._assembled_for = (key, dt, fixed)
+        self._restored_blocks = None
         n = m.n_dofs
         mode = self.settings.linear_solver
         if mode == "banded" or (mode == "auto" and bw <= 24):
@@ -396,6 +412,26 @@ class Stepper:
         self._needs_factor = True
         self.last_solver = "sparse"
 
+    def _jacobian_carries_over(self, dt: float, fixed: np.ndarray) -> bool:
+        """Whether a step over ``dt`` (s) with the constrained unknowns ``fixed`` ``(n_dofs,)``
+        starts from the last Jacobian (see ``SolverOptions.jacobian_across_steps``): the last step
+        converged in one iteration, and the Jacobian (factorised, or restored from a checkpoint) was
+        assembled for this step size, these constraints and the current interaction blocks."""
+        a = self._assembled_for
+        if (a is None or self._last_iterations != 1 or a[1] != dt or self._active is None and self._restored_blocks is None
+                or self._needs_factor and self._restored_blocks is None or not same_values(a[2], fixed)):
+            return False
+        inter_dofs, key, _ = self._interaction_pattern()
+        if a[0] is None:  # restored: compare the blocks themselves (the interactions' keys are new)
+            if len(inter_dofs) != len(self._restored_blocks) or not all(
+                    d.shape == b.shape and same_values(d.ravel(), b.ravel())
+                    for d, b in zip(inter_dofs, self._restored_blocks, strict=True)):
+                return False
+            self._assembled_for = (key, a[1], a[2])
+            self._restored_blocks = None
+            return True
+        return key == a[0]
+
     def _solve(self, rhs: np.ndarray) -> np.ndarray:
         """Solve with the last assembled Jacobian, factorising it first if it is new."""
         if self._needs_factor:
@@ -413,38 +449,6 @@ class Stepper:
             self.timers["factorization"] += time.perf_counter() - t0  # (part of linear_solve)
         return self._active.solve(rhs)
 
-    def _where(self, system: _StepSystem, q: np.ndarray) -> str:
-        """Where the residual of a failed solve is largest: ``"; largest residual ... at rod R node K"``
-        (or edge K's twist), and the nearest contact pair with the angle between its edges, so that a
-        stall can be traced (one extra residual evaluation, only on failure)."""
-        m = self.model
-        try:
-            r = system.residual(q, False)
-        except Exception:  # the diagnosis must not hide the failure
-            return ""
-        if not np.all(np.isfinite(r)) or not r.size:
-            return ""
-        k = int(np.argmax(np.abs(r)))
-        if m.theta_mask[k]:
-            e = int(np.flatnonzero(m.edge_theta_dof == k)[0])
-            rod = int(m.edge_rod[e])
-            where = f"edge {int(m.edge_local[e])} (twist)"
-            unit = "N m"
-            node = None
-        else:
-            node = int(np.searchsorted(m.node_dof, k, side="right") - 1)
-            rod = int(np.searchsorted(m.rod_node_start, node, side="right") - 1)
-            where = f"node {node - int(m.rod_node_start[rod])}"
-            unit = "N"
-        out = f"; largest residual {abs(r[k]):.3g} {unit} at rod {m.rod_names[rod]!r} {where}"
-        for inter in self.interactions:
-            describe = getattr(inter, "describe_near", None)
-            if node is not None and describe is not None:
-                text = describe(q, node)
-                if text:
-                    out += f", {text}"
-        return out
-
     def store_configuration(self, state: State, q: np.ndarray, source: FrameSource) -> None:
         """Set ``state.q`` to ``q`` with its tangents, reference directors and reference twist
         (transported from ``source``; recomputed, since the last evaluation may have been a
@@ -460,12 +464,37 @@ class Stepper:
 
     # -- checkpoints ----------------------------------------------------------------------
     def save_state(self) -> tuple[dict, dict]:
-        """The stepper's memory between steps (the acceleration predictor's previous step):
-        ``(scalars, arrays)`` for :mod:`knotsim.io.checkpoint`."""
-        if self._history is None:
-            return {"history": False}, {}
-        t, v, dt = self._history
-        return {"history": True, "time": float(t), "dt": float(dt)}, {"v_prev": v}
+        """The stepper's memory between steps: the acceleration predictor's previous step and,
+        when the next step may start from it (``SolverOptions.jacobian_across_steps``), the last
+        assembled Jacobian with what it was assembled for. ``(scalars, arrays)`` for
+        :mod:`knotsim.io.checkpoint`."""
+        meta, arrays = {"history": False}, {}
+        if self._history is not None:
+            t, v, dt = self._history
+            meta, arrays = {"history": True, "time": float(t), "dt": float(dt)}, {"v_prev": v}
+        a = self._assembled_for
+        if (self._last_iterations == 1 and a is not None and a[1] is not None
+                and self.settings.jacobian_across_steps and (not self._needs_factor or a[0] is None)):
+            if a[0] is None:  # restored and not used yet: its blocks are those it was restored with
+                blocks = self._restored_blocks
+            else:
+                blocks = [np.asarray(d) for d in self._interaction_pattern()[0]]
+                if self._interaction_pattern()[1] != a[0]:
+                    blocks = None  # the blocks changed since: the next step assembles afresh
+            if blocks is not None:
+                meta.update(last_iterations=int(self._last_iterations), jacobian_dt=float(a[1]),
+                            jacobian_kind=self._system[0], n_interaction_blocks=len(blocks))
+                arrays["jacobian_fixed"] = np.asarray(a[2], bool)
+                for i, b in enumerate(blocks):
+                    arrays[f"jacobian_blocks_{i}"] = np.asarray(b, np.int64)
+                if self._system[0] == "banded":
+                    _, ab, kl, ku, symmetric = self._system
+                    meta.update(jacobian_kl=int(kl), jacobian_ku=int(ku), jacobian_symmetric=bool(symmetric))
+                    arrays["jacobian_banded"] = np.asarray(ab)
+                else:
+                    arrays.update(jacobian_indptr=self._indptr, jacobian_indices=self._indices,
+                                  jacobian_data=self._system[1])
+        return meta, arrays
 
     def load_state(self, meta: dict, arrays: dict) -> None:
         """Restore what :meth:`save_state` returned."""
@@ -473,6 +502,27 @@ class Stepper:
             self._history = (float(meta["time"]), np.array(arrays["v_prev"], float), float(meta["dt"]))
         else:
             self._history = None
+        self._last_iterations = None
+        self._assembled_for = self._restored_blocks = None
+        if "jacobian_kind" not in meta:
+            return
+        self._last_iterations = int(meta["last_iterations"])
+        self._assembled_for = (None, float(meta["jacobian_dt"]), np.array(arrays["jacobian_fixed"], bool))
+        self._restored_blocks = [np.array(arrays[f"jacobian_blocks_{i}"], np.int64)
+                                 for i in range(int(meta["n_interaction_blocks"]))]
+        if meta["jacobian_kind"] == "banded":
+            ab = np.asfortranarray(np.array(arrays["jacobian_banded"], float))
+            self._system = ("banded", ab, int(meta["jacobian_kl"]), int(meta["jacobian_ku"]),
+                            bool(meta["jacobian_symmetric"]))
+        else:
+            # the sparse Jacobian brings its own pattern; the next assembly builds its own again
+            self._indptr = np.array(arrays["jacobian_indptr"], np.int64)
+            self._indices = np.array(arrays["jacobian_indices"], np.int64)
+            self._data = np.array(arrays["jacobian_data"], float)
+            self._system = ("sparse", self._data)
+            self._pattern_key = None
+            self._pattern_id += 1
+        self._needs_factor = True
 
     # -- stepping -------------------------------------------------------------------------
     def _predict(self, state_in: State, dt: float) -> np.ndarray:
@@ -503,13 +553,16 @@ class Stepper:
         q0 = self._predict(state_in, dt)
         q0[fixed_dofs] = fixed_vals
         system = _StepSystem(self, state_in, dt, fixed, self.gravity_force + f_bc, static=False)
+        reuse = self.settings.jacobian_reuse and not self.full_newton
+        carry = reuse and self.settings.jacobian_across_steps and self._jacobian_carries_over(dt, fixed)
+        self._last_iterations = None  # until this step is accepted
         try:
             res = newton_solve(system, q0, self.settings.max_iterations, self.settings.line_search,
-                               reuse_jacobian=self.settings.jacobian_reuse and not self.full_newton)
+                               reuse_jacobian=reuse, jacobian_at_start=not carry)
         except (LinearSolveError, ArithmeticError) as exc:  # ArithmeticError: ZeroDivision, overflow, FPE
             raise StepFailure(f"{type(exc).__name__}: {exc}" if isinstance(exc, ArithmeticError) else str(exc)) from exc
         if not res.converged:
-            raise StepFailure(f"{res.reason}{self._where(system, res.q)}")
+            raise StepFailure(f"{res.reason}{largest_residual_at(m, self.interactions, system, res.q)}")
         if not all_finite(res.q):
             raise StepFailure("Newton returned non-finite positions")
         for inter in self.interactions:
@@ -520,6 +573,7 @@ class Stepper:
             if reason:
                 raise StepFailure(reason)
         q = res.q
+        self._last_iterations = res.iterations
         v_new = (q - state_in.q) / dt
         energies = dict(system.energies)
         energies["kinetic"] = 0.5 * float(np.dot(m.mass * v_new, v_new))
