@@ -133,3 +133,16 @@ class SparseSolver:
         if self._splu is not None:
             return self._splu.solve(rhs)
         return self._lu.solve(rhs)
+
+    @property
+    def ordering_memory(self) -> tuple[np.ndarray, int, int] | None:
+        """The ordering the next new pattern starts from (it decides the round-off of every later
+        factorisation): ``(perm (n,), its nnz(L), the nnz of the matrix it was computed for)`` of
+        the last fresh analysis, or None before the first."""
+        return self._order
+
+    def restore_ordering_memory(self, perm: np.ndarray, nnz_l: int, nnz_a: int) -> None:
+        """Set what :attr:`ordering_memory` returned (a continued run analyses its patterns as the
+        uninterrupted run did); the next factorisation analyses its pattern afresh."""
+        self._order = (np.array(perm, np.int64), int(nnz_l), int(nnz_a))
+        self._key = None

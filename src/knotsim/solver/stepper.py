@@ -464,14 +464,18 @@ class Stepper:
 
     # -- checkpoints ----------------------------------------------------------------------
     def save_state(self) -> tuple[dict, dict]:
-        """The stepper's memory between steps: the acceleration predictor's previous step and,
-        when the next step may start from it (``SolverOptions.jacobian_across_steps``), the last
-        assembled Jacobian with what it was assembled for. ``(scalars, arrays)`` for
-        :mod:`knotsim.io.checkpoint`."""
+        """The stepper's memory between steps: the acceleration predictor's previous step, the
+        sparse LU's ordering memory and, when the next step may start from it
+        (``SolverOptions.jacobian_across_steps``), the last assembled Jacobian with what it was
+        assembled for. ``(scalars, arrays)`` for :mod:`knotsim.io.checkpoint`."""
         meta, arrays = {"history": False}, {}
         if self._history is not None:
             t, v, dt = self._history
             meta, arrays = {"history": True, "time": float(t), "dt": float(dt)}, {"v_prev": v}
+        order = self._sparse.ordering_memory
+        if order is not None:  # the sparse LU's ordering memory decides the round-off of later steps
+            meta.update(ordering_nnz_l=int(order[1]), ordering_nnz_a=int(order[2]))
+            arrays["ordering_perm"] = order[0]
         a = self._assembled_for
         if (self._last_iterations == 1 and a is not None and a[1] is not None
                 and self.settings.jacobian_across_steps and (not self._needs_factor or a[0] is None)):
@@ -502,6 +506,9 @@ class Stepper:
             self._history = (float(meta["time"]), np.array(arrays["v_prev"], float), float(meta["dt"]))
         else:
             self._history = None
+        if "ordering_nnz_l" in meta:
+            self._sparse.restore_ordering_memory(arrays["ordering_perm"], meta["ordering_nnz_l"],
+                                                 meta["ordering_nnz_a"])
         self._last_iterations = None
         self._assembled_for = self._restored_blocks = None
         if "jacobian_kind" not in meta:
