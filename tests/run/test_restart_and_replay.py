@@ -89,7 +89,7 @@ def _knot_job():
 def test_knot_continues_bit_for_bit_with_the_sparse_ordering_memory(tmp_path):
     """A new sparsity pattern reuses the ordering of the last fresh analysis (its round-off depends
     on it): the checkpoint keeps that ordering, so the continued run factorises as the uninterrupted
-    one (without it the positions differ by about 4e-15 m after 0.5 s)."""
+    one (without it the positions differ by a few 1e-15 m after 0.5 s)."""
     from knotsim.io.checkpoint import read_checkpoint
 
     full = _knot_job()
