@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from knotsim.bc import BoundaryConditions
-from knotsim.contact.assembly import contact_evaluate_regularized
+from knotsim.contact.assembly import contact_evaluate_regularized, contact_evaluate_regularized_surface
 from knotsim.contact.model import BLOCK_BAND_FRACTION, ContactInteraction, ContactSettings
 from knotsim.rods import Model, RodSpec
 from knotsim.simulation import Simulation
@@ -62,19 +62,23 @@ def test_same_jacobian_with_fewer_blocks(mu):
     _, blocks = ci.evaluate(q, st.q, 1e-3, r, True)
     dofs = ci.block_dofs()
     assert 0 < dofs.shape[0] < ci.pair_dofs.shape[0]  # near pairs only, not every candidate
-    assert blocks.shape == (dofs.shape[0], 12, 12)
+    w = 14 if mu > 0.0 else 12  # surface friction (the default) adds the two edge angles
+    assert blocks.shape == (dofs.shape[0], w, w)
     # the blocks of every candidate pair, from the kernel with a slot for each
     k = ci.pair_dofs.shape[0]
-    every = np.zeros((k, 12, 12))
-    contact_evaluate_regularized(q, st.q, 1e-3, ci.pair_dofs, ci.pair_d, ci.pair_mu, ci.settings.delta,
-                                 ci.settings.nu, ci.k_c, np.zeros(m.n_dofs), True, every, np.arange(k),
-                                 np.empty(k), np.empty((k, 12)), np.empty((k, 12)), ci.pair_eta)
+    every = np.zeros((k, w, w))
+    kernel = contact_evaluate_regularized_surface if mu > 0.0 else contact_evaluate_regularized
+    kernel(q, st.q, 1e-3, ci.pair_dofs, ci.pair_d, ci.pair_mu, ci.settings.delta,
+           ci.settings.nu, ci.k_c, np.zeros(m.n_dofs), True, every, np.arange(k),
+           np.empty(k), np.empty((k, 12)), np.empty((k, 12)), ci.pair_eta, ci.pair_theta, ci.pair_h,
+           np.zeros((k, 4)))
+    every_dofs = np.concatenate([ci.pair_dofs, ci.pair_theta], axis=1) if mu > 0.0 else ci.pair_dofs
     # every pair left out has a zero block and is beyond the band
     out = ~ci._block_mask
     assert not np.any(every[out])
     band = ci.settings.delta + BLOCK_BAND_FRACTION * ci.settings.margin
     assert np.all(ci._last.delta[out] >= ci.pair_d[out] + band)
-    np.testing.assert_array_equal(dense(m.n_dofs, dofs, blocks), dense(m.n_dofs, ci.pair_dofs, every))
+    np.testing.assert_array_equal(dense(m.n_dofs, dofs, blocks), dense(m.n_dofs, every_dofs, every))
 
 
 def test_pair_coming_into_range_gets_a_block_before_assembly():

@@ -98,10 +98,11 @@ def test_contact_gradient_and_jacobian_match_fd_frictionless(z_gap, smoothing):
     assert edge_edge_distance(p)[3] == CASE_EE
 
 
+@pytest.mark.parametrize("friction_model", ["surface", "centreline"])
 @pytest.mark.parametrize("smoothing", [0.0, 2e-6])
 @pytest.mark.parametrize("speed", [3e-3, 3e-5, 0.0])
 @pytest.mark.parametrize("z_gap", [1.9e-3, 2.2e-3])
-def test_contact_with_friction_matches_fd(speed, z_gap, smoothing):
+def test_contact_with_friction_matches_fd(speed, z_gap, smoothing, friction_model):
     m = two_rods(z_gap, tilt=0.2)
     rng = np.random.default_rng(1)
     st = initial_state(m)
@@ -111,7 +112,9 @@ def test_contact_with_friction_matches_fd(speed, z_gap, smoothing):
     nb = m.node_dof[m.rod_node_start[1]:]
     q_prev[nb] -= speed * dt
     q_prev[m.node_dof] += 0.1 * speed * dt * rng.standard_normal(m.n_nodes)
-    settings = ContactSettings(stiffness_mode="constant", stiffness=50.0, mu=0.4, parallel_smoothing=smoothing)
+    q_prev[m.edge_theta_dof] += 10 * speed * dt * rng.standard_normal(m.n_edges)  # spins (rad)
+    settings = ContactSettings(stiffness_mode="constant", stiffness=50.0, mu=0.4, parallel_smoothing=smoothing,
+                               friction_model=friction_model)
     ci, _ = prepared(m, settings)
     r0, err, scale = fd_check(ci, st.q, q_prev, dt, h=1e-11)
     assert err <= RTOL * scale, (err, scale)
@@ -126,6 +129,11 @@ def test_contact_with_friction_matches_fd(speed, z_gap, smoothing):
     ci.evaluate(st.q, q_prev, dt, r2, False)
     fr = np.zeros(m.n_dofs)
     np.add.at(fr, ci.pair_dofs.ravel(), ci._last.ff.ravel())
+    np.add.at(fr, ci.pair_theta.ravel(), ci._last.surface[:, 2:].ravel())  # torques (surface friction)
+    if friction_model == "centreline":
+        assert not np.any(ci._last.surface)
+    elif speed > 0:
+        assert np.any(ci._last.surface[:, 2:] != 0.0)
     np.testing.assert_allclose(r2, r1 - fr, rtol=1e-12, atol=1e-15)
 
 

@@ -18,6 +18,7 @@ from knotsim.contact.distance import (
 from knotsim.contact.friction import friction_pair
 from knotsim.contact.potential import pair_energy
 from knotsim.contact.regularized_distance import regularized_beta_gradients
+from knotsim.contact.surface_friction import surface_friction_pair
 
 
 @njit(cache=True)
@@ -48,27 +49,55 @@ def pair_dofs_from_edges(pairs, edge_dofs):
 
 @njit(cache=True)
 def contact_evaluate_regularized(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
-                                 want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta):
-    """:func:`contact_evaluate` with the regularized distance (every ``pair_eta > 0``)."""
+                                 want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta,
+                                 pair_theta, pair_h, pair_surface):
+    """:func:`contact_evaluate` with the regularized distance (every ``pair_eta > 0``), centre-line
+    friction."""
     return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
-                            blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, True)
+                            blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, True, False,
+                            pair_theta, pair_h, pair_surface)
 
 
 @njit(cache=True)
 def contact_evaluate_exact(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
-                           want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta):
-    """:func:`contact_evaluate` with the exact segment distance (``pair_eta`` unused)."""
+                           want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta,
+                           pair_theta, pair_h, pair_surface):
+    """:func:`contact_evaluate` with the exact segment distance (``pair_eta`` unused), centre-line
+    friction."""
     return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
-                            blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, False)
+                            blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, False, False,
+                            pair_theta, pair_h, pair_surface)
+
+
+@njit(cache=True)
+def contact_evaluate_regularized_surface(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
+                                         want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta,
+                                         pair_theta, pair_h, pair_surface):
+    """:func:`contact_evaluate` with the regularized distance and friction at the rods' surfaces."""
+    return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
+                            blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, True, True,
+                            pair_theta, pair_h, pair_surface)
+
+
+@njit(cache=True)
+def contact_evaluate_exact_surface(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
+                                   want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta,
+                                   pair_theta, pair_h, pair_surface):
+    """:func:`contact_evaluate` with the exact segment distance and friction at the rods' surfaces."""
+    return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
+                            blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, False, True,
+                            pair_theta, pair_h, pair_surface)
 
 
 @njit(inline="always", cache=True)
 def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
-                     blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, regularized):
+                     blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, regularized, surface,
+                     pair_theta, pair_h, pair_surface):
     """Contact and friction of every candidate pair at the Newton iterate ``q``.
 
-    Called through :func:`contact_evaluate_regularized` or :func:`contact_evaluate_exact`, which
-    inline it with a literal ``regularized``: a run compiles the loop of the distance it uses only.
+    Called through :func:`contact_evaluate_regularized`, :func:`contact_evaluate_exact` and their
+    ``_surface`` twins, which inline it with literal ``regularized`` and ``surface``: a run compiles
+    the loop of the distance and friction law it uses only.
 
     Parameters
     ----------
@@ -78,9 +107,10 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     tol : IMC distance tolerance δ (m); nu : slip tolerance ν (m/s); kc : contact stiffness (N/m).
     residual : (n_dofs,) float64, updated in place: ``+= k_c ∇E − F_fr`` (N).
     want_jacobian : whether to fill ``blocks``.
-    blocks : (b, 12, 12) float64 output (if ``want_jacobian``): ``k_c ∇²E − ∂F_fr/∂p`` (N/m) of the
+    blocks : (b, w, w) float64 output (if ``want_jacobian``): ``k_c ∇²E − ∂F_fr/∂p`` (N/m) of the
         pairs that have a Jacobian block, pair ``k`` in ``blocks[block_slot[k]]``; zero for pairs out
-        of range.
+        of range. ``w = 12`` (the four nodes' coordinates) with centre-line friction, ``w = 14`` (then
+        the two edge angles ``pair_theta[k]`` follow) with surface friction.
     block_slot : (k,) int64, the block of every pair, −1 for a pair without one.
     pair_delta : (k,) float64 output, distance Δ (m) of every pair.
     pair_fc, pair_ff : (k, 12) float64 outputs, contact force ``−k_c ∇E`` and friction force (N) on
@@ -88,6 +118,13 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     pair_eta : (k,) float64, parallel-edge regularization η > 0 of every pair's distance, see
         :mod:`knotsim.contact.regularized_distance` (unused with the exact distance).
     regularized : bool, ``True``: the regularized distance; ``False``: the exact segment distance.
+    surface : bool, ``True``: friction at the rods' surfaces (:mod:`knotsim.contact.surface_friction`,
+        forces on the edge angles too); ``False``: centre-line friction (:mod:`knotsim.contact.friction`).
+    pair_theta : (k, 2) int64, index in ``q`` of the angles of the pair's edges (used if ``surface``).
+    pair_h : (k, 2) float64, radii of the pair's edges (m; used if ``surface``).
+    pair_surface : (k, 4) float64 output (written if ``surface``): slip speed and rolling speed (m/s) of
+        every pair in range with friction (see :func:`~knotsim.contact.surface_friction.surface_friction_pair`)
+        and the friction torques on its two edge angles (N m); zero for the others.
 
     Returns
     -------
@@ -106,6 +143,11 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     dbj = np.empty(12)
     ffr = np.empty(12)
     jfr = np.empty((12, 12))
+    fsu = np.empty(14)
+    jsu = np.empty((14, 14))
+    th = np.empty(2)
+    thp = np.empty(2)
+    nb = blocks.shape[1]
     etot = 0.0
     missing = 0
     for k in range(npair):
@@ -115,13 +157,16 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
         E, delta, bi, bj, case = pair_energy(p, pair_d[k], tol, grad, hess, eta, regularized, want_jacobian)
         pair_delta[k] = delta
         slot = block_slot[k]
+        if surface:
+            for m in range(4):
+                pair_surface[k, m] = 0.0
         if E <= 0.0:
             for m in range(12):
                 pair_fc[k, m] = 0.0
                 pair_ff[k, m] = 0.0
             if want_jacobian and slot >= 0:
-                for m in range(12):
-                    for n in range(12):
+                for m in range(nb):
+                    for n in range(nb):
                         blocks[slot, m, n] = 0.0
             continue
         if want_jacobian and slot < 0:
@@ -144,18 +189,47 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
                     regularized_beta_gradients(p, eta, bi, bj, case, dbi, dbj)
                 else:
                     edge_edge_beta_gradients(p, bi, bj, case, dbi, dbj)
-            friction_pair(p, pp, dt, mu, nu, fc, dfc, bi, bj, dbi, dbj, ffr, jfr, want_jacobian)
-            for m in range(12):
-                pair_ff[k, m] = ffr[m]
-                residual[pair_dofs[k, m]] -= ffr[m]
-            if want_jacobian and slot >= 0:
+            if surface:
+                ta = pair_theta[k, 0]
+                tb = pair_theta[k, 1]
+                th[0] = q[ta]
+                th[1] = q[tb]
+                thp[0] = q_prev[ta]
+                thp[1] = q_prev[tb]
+                slip, rolling = surface_friction_pair(p, pp, th, thp, dt, mu, nu, pair_h[k, 0], pair_h[k, 1], fc,
+                                                      dfc, bi, bj, dbi, dbj, fsu, jsu, want_jacobian)
+                pair_surface[k, 0] = slip
+                pair_surface[k, 1] = rolling
+                pair_surface[k, 2] = fsu[12]
+                pair_surface[k, 3] = fsu[13]
                 for m in range(12):
-                    for n in range(12):
-                        blocks[slot, m, n] = kc * hess[m, n] - jfr[m, n]
+                    pair_ff[k, m] = fsu[m]
+                    residual[pair_dofs[k, m]] -= fsu[m]
+                residual[ta] -= fsu[12]
+                residual[tb] -= fsu[13]
+                if want_jacobian and slot >= 0:
+                    for m in range(14):
+                        for n in range(14):
+                            blocks[slot, m, n] = -jsu[m, n]
+                    for m in range(12):
+                        for n in range(12):
+                            blocks[slot, m, n] += kc * hess[m, n]
+            else:
+                friction_pair(p, pp, dt, mu, nu, fc, dfc, bi, bj, dbi, dbj, ffr, jfr, want_jacobian)
+                for m in range(12):
+                    pair_ff[k, m] = ffr[m]
+                    residual[pair_dofs[k, m]] -= ffr[m]
+                if want_jacobian and slot >= 0:
+                    for m in range(12):
+                        for n in range(12):
+                            blocks[slot, m, n] = kc * hess[m, n] - jfr[m, n]
         else:
             for m in range(12):
                 pair_ff[k, m] = 0.0
             if want_jacobian and slot >= 0:
+                for m in range(nb):
+                    for n in range(nb):
+                        blocks[slot, m, n] = 0.0
                 for m in range(12):
                     for n in range(12):
                         blocks[slot, m, n] = kc * hess[m, n]

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -51,7 +51,9 @@ from knotsim.contact._model_kernels import gap_summary
 from knotsim.contact.assembly import (
     approach_forces,
     contact_evaluate_exact,
+    contact_evaluate_exact_surface,
     contact_evaluate_regularized,
+    contact_evaluate_regularized_surface,
     nodal_force_summary,
     pair_dofs_from_edges,
 )
@@ -88,6 +90,9 @@ class _Eval:
     delta: np.ndarray = field(default_factory=lambda: np.zeros(0))
     fc: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)))
     ff: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)))
+    #: (k, 4) slip and rolling speeds (m/s) and friction torques on the two edge angles (N m) of every
+    #: pair, with surface friction (zeros otherwise)
+    surface: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
 
 
 #: No evaluation yet this step (shared: an ``_Eval`` is never changed after it is made).
@@ -115,6 +120,10 @@ class Contact:
         s = self.settings
         m = model
         self._mu_table = self._mu_matrix(s.mu)
+        #: friction at the rods' surfaces: pair blocks carry the two edge angles (14 unknowns); a
+        #: model without friction needs no angles (both laws are then the same)
+        self.surface_friction = s.friction_model == "surface" and bool(np.any(self._mu_table > 0.0))
+        self._block_width = 14 if self.surface_friction else 12
         self.h_min = float(np.min(m.edge_radius)) if m.n_edges else 1.0
         node_mass = m.mass[m.node_dof] if m.n_nodes else np.zeros(1)
         if s.stiffness_floor is not None:
@@ -130,6 +139,8 @@ class Contact:
         self._fmax_pending = 0.0
         self.pairs = np.zeros((0, 2), np.int64)
         self.pair_dofs = np.zeros((0, 12), np.int64)
+        self.pair_theta = np.zeros((0, 2), np.int64)
+        self.pair_h = np.zeros((0, 2))
         self._dt_ref = 0.0
         # Same-rod pairs closer than 1.5 contact distances along the rod never count as contact
         # (knotsim.geometry.exclusion): on a finely meshed rod, edges i and i + 3 of a straight rod
@@ -141,10 +152,10 @@ class Contact:
         self.pair_d = np.zeros(0)
         self.pair_mu = np.zeros(0)
         self.pair_hmin = np.zeros(0)
-        self._blocks = np.zeros((0, 12, 12))
+        self._blocks = np.zeros((0, self._block_width, self._block_width))
         self._block_mask = np.zeros(0, bool)
         self._block_idx = np.zeros(0, np.int64)
-        self._block_pair_dofs = np.zeros((0, 12), np.int64)
+        self._block_pair_dofs = np.zeros((0, self._block_width), np.int64)
         self._pair_keys = np.zeros(0, np.int64)
         self._q_build = None
         self._node_xyz = m.node_dof[:, None] + np.arange(3)[None, :]
@@ -263,6 +274,8 @@ class Contact:
         rb = m.edge_radius[pairs[:, 1]]
         self.pair_d = ra + rb
         self.pair_hmin = np.minimum(ra, rb)
+        self.pair_theta = np.ascontiguousarray(m.edge_theta_dof[pairs].reshape(-1, 2), dtype=np.int64)
+        self.pair_h = np.ascontiguousarray(np.stack([ra, rb], axis=1).reshape(-1, 2))
         la = m.rest_length[pairs[:, 0]]
         lb = m.rest_length[pairs[:, 1]]
         self.pair_eta = 8.0 * self.pair_d * self.settings.parallel_smoothing / (la * la + lb * lb)
@@ -274,16 +287,20 @@ class Contact:
         """Give Jacobian blocks to the candidate pairs of ``mask`` ``(k,)`` bool (a new pattern)."""
         self._block_mask = mask
         self._block_idx = np.flatnonzero(mask)
-        self._block_pair_dofs = np.ascontiguousarray(self.pair_dofs[self._block_idx])
+        dofs = self.pair_dofs[self._block_idx]
+        if self.surface_friction:
+            dofs = np.concatenate([dofs, self.pair_theta[self._block_idx]], axis=1)
+        self._block_pair_dofs = np.ascontiguousarray(dofs)
         # the kernel writes the block of pair k into self._blocks[slot[k]] (slot -1: no block)
         self._block_slot = np.full(mask.shape[0], -1, np.int64)
         self._block_slot[self._block_idx] = np.arange(self._block_idx.shape[0])
         if self._blocks.shape[0] != self._block_idx.shape[0]:
-            self._blocks = np.zeros((self._block_idx.shape[0], 12, 12))
+            self._blocks = np.zeros((self._block_idx.shape[0], self._block_width, self._block_width))
         self.pattern_version += 1
 
     def block_dofs(self) -> np.ndarray:
-        """``(b, 12)`` unknowns of the Jacobian blocks: the candidate pairs that have been within
+        """``(b, w)`` unknowns (``w = 12``: the pair's node coordinates; ``w = 14`` with surface
+        friction: then the angles of its two edges) of the Jacobian blocks: the candidate pairs that have been within
         ``d + delta + BLOCK_BAND_FRACTION × margin`` at a Jacobian evaluation since the list was built.
 
         The block of a pair is exactly zero while its gap ``Δ − d`` is at least ``delta`` (no energy,
@@ -297,15 +314,21 @@ class Contact:
         return self._block_pair_dofs
 
     def evaluate(self, q, q_prev, dt, residual, want_jacobian):
-        """Add ``k_c ∇E − F_friction`` (N) to ``residual``; return ``(k_c ΣE (J), blocks (k,12,12) | None)``."""
+        """Add ``k_c ∇E − F_friction`` (N) to ``residual``; return ``(k_c ΣE (J), blocks (b, w, w) | None)``
+        (``w`` as in :meth:`block_dofs`)."""
         t0 = time.perf_counter()
         k = self.pair_dofs.shape[0]
-        ev = _Eval(q.copy(), np.empty(k), np.empty((k, 12)), np.empty((k, 12)))
-        # one kernel per distance: a run compiles only the one it uses (pair_eta > 0 iff smoothing > 0)
-        kernel = contact_evaluate_regularized if self.settings.parallel_smoothing > 0.0 else contact_evaluate_exact
+        ev = _Eval(q.copy(), np.empty(k), np.empty((k, 12)), np.empty((k, 12)), np.zeros((k, 4)))
+        # one kernel per distance and friction law: a run compiles only the one it uses (pair_eta > 0
+        # iff smoothing > 0)
+        if self.settings.parallel_smoothing > 0.0:
+            kernel = contact_evaluate_regularized_surface if self.surface_friction else contact_evaluate_regularized
+        else:
+            kernel = contact_evaluate_exact_surface if self.surface_friction else contact_evaluate_exact
         args = (self.pair_dofs, self.pair_d, self.pair_mu, self.settings.delta, self.settings.nu, self.k_c)
+        tail = (self.pair_eta, self.pair_theta, self.pair_h, ev.surface)
         e, missing = kernel(q, q_prev, dt, *args, residual, bool(want_jacobian), self._blocks, self._block_slot,
-                            ev.delta, ev.fc, ev.ff, self.pair_eta)
+                            ev.delta, ev.fc, ev.ff, *tail)
         self._last = ev
         self._q_prev = q_prev
         self._dt = dt
@@ -316,7 +339,7 @@ class Contact:
                 band = self.settings.delta + BLOCK_BAND_FRACTION * self.settings.margin
                 self._set_blocks(self._block_mask | live | (ev.delta < self.pair_d + band))
                 kernel(q, q_prev, dt, *args, np.zeros_like(residual), True, self._blocks, self._block_slot,
-                       ev.delta, ev.fc, ev.ff, self.pair_eta)
+                       ev.delta, ev.fc, ev.ff, *tail)
             blocks = self._blocks  # the blocks of block_dofs(), in its order (valid until the next call)
         self.timers["narrow_phase"] += time.perf_counter() - t0
         return float(e), blocks
@@ -564,31 +587,6 @@ ContactInteraction = Contact
 
 
 def contact_from_config(model, table: dict) -> list:
-    """Interactions described by a ``[contact]`` configuration table.
-
-    Keys are the fields of :class:`ContactSettings`; an unknown key raises :class:`ConfigError`
-    naming it. ``mu`` may be a number or a table ``{default = 0.1, "rope,obstacle" = 0.3}`` whose
-    keys other than ``default`` are two rod names (or indices) separated by a comma.
-    Returns ``[ContactInteraction]``.
-    """
-    if not isinstance(table, dict):
-        raise ConfigError("contact", f"expected a table, got {type(table).__name__}")
-    names = {f.name for f in fields(ContactSettings)}
-    kwargs = {}
-    for key, val in table.items():
-        if key not in names:
-            raise ConfigError(f"contact.{key}", f"unknown key; known keys are {sorted(names)}")
-        kwargs[key] = val
-    mu = kwargs.get("mu")
-    if isinstance(mu, dict):
-        parsed = {}
-        for key, val in mu.items():
-            if key == "default":
-                parsed["default"] = val
-                continue
-            parts = [p.strip() for p in str(key).split(",")]
-            if len(parts) != 2 or not all(parts):
-                raise ConfigError(f"contact.mu.{key}", "expected two rod names separated by a comma, e.g. \"a,b\"")
-            parsed[tuple(int(p) if p.lstrip("-").isdigit() else p for p in parts)] = val
-        kwargs["mu"] = parsed
-    return [ContactInteraction(model, ContactSettings(**kwargs))]
+    """Interactions described by a ``[contact]`` configuration table
+    (:meth:`ContactOptions.from_table` checks it). Returns ``[Contact]``."""
+    return [Contact(model, ContactOptions.from_table(table))]

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from enum import StrEnum
 
 import numpy as np
 
 from knotsim.errors import ConfigError
 
-__all__ = ["ContactOptions", "ContactSettings", "StiffnessMode"]
+__all__ = ["ContactOptions", "ContactSettings", "FrictionModel", "StiffnessMode"]
 
 
 def _positive(name: str, value, allow_zero: bool = False) -> float:
@@ -27,6 +27,13 @@ class StiffnessMode(StrEnum):
 
     ADAPTIVE = "adaptive"  #: from the largest contact force and approach speed, step by step
     CONSTANT = "constant"  #: ``stiffness`` throughout
+
+
+class FrictionModel(StrEnum):
+    """Where friction acts (:attr:`ContactOptions.friction_model`; docs/physics.md §3)."""
+
+    SURFACE = "surface"  #: at the rods' surface points: strands roll and twist as well as slide
+    CENTRELINE = "centreline"  #: on the centre lines' contact points (the IMC law; no friction torque)
 
 
 @dataclass
@@ -50,6 +57,11 @@ class ContactOptions:
     - ``penetration_limit``: deepest accepted penetration as a fraction of the smaller radius of the
       pair (default 0.2); a deeper step is retried smaller;
     - ``self_contact``: whether edges of the same rod touch (default True);
+    - ``friction_model``: ``"surface"`` (default): friction acts at the rods' surface points, whose
+      velocity includes the cross-sections' rotation, and exerts torques on the edge angles
+      (:mod:`knotsim.contact.surface_friction`), so a strand can roll through a crossing;
+      ``"centreline"``: the Implicit Contact Model's law on the centre lines' contact points
+      (:mod:`knotsim.contact.friction`; the results of knotsim before the surface model, bit for bit);
     - ``parallel_smoothing``: length ℓ (m) of the regularization of the edge–edge distance
       (:mod:`knotsim.contact.regularized_distance`) that makes contact between (nearly) parallel
       edges smooth, default 2e-6. Each pair gets ``η = 8 d ℓ / (l̄_a² + l̄_b²)`` (``d`` its contact
@@ -72,6 +84,40 @@ class ContactOptions:
     penetration_limit: float = 0.2
     self_contact: bool = True
     parallel_smoothing: float = 2e-6
+    friction_model: FrictionModel | str = "surface"
+
+    @classmethod
+    def from_table(cls, table: dict) -> ContactOptions:
+        """Options from a ``[contact]`` configuration table (checked by :meth:`validate`).
+
+        Keys are the fields of this class; an unknown key raises :class:`ConfigError` naming it.
+        ``mu`` may be a number or a table ``{default = 0.1, "rope,obstacle" = 0.3}`` whose keys other
+        than ``default`` are two rod names (or indices) separated by a comma.
+        """
+        if not isinstance(table, dict):
+            raise ConfigError("contact", f"expected a table, got {type(table).__name__}")
+        names = {f.name for f in fields(cls)}
+        kwargs = {}
+        for key, val in table.items():
+            if key not in names:
+                raise ConfigError(f"contact.{key}", f"unknown key; known keys are {sorted(names)}")
+            kwargs[key] = val
+        mu = kwargs.get("mu")
+        if isinstance(mu, dict):
+            parsed = {}
+            for key, val in mu.items():
+                if key == "default":
+                    parsed["default"] = val
+                    continue
+                parts = [p.strip() for p in str(key).split(",")]
+                if len(parts) != 2 or not all(parts):
+                    raise ConfigError(f"contact.mu.{key}",
+                                      "expected two rod names separated by a comma, e.g. \"a,b\"")
+                parsed[tuple(int(p) if p.lstrip("-").isdigit() else p for p in parts)] = val
+            kwargs["mu"] = parsed
+        opts = cls(**kwargs)
+        opts.validate()
+        return opts
 
     def validate(self) -> None:
         """Raise :class:`ConfigError` naming the first bad field."""
@@ -98,6 +144,11 @@ class ContactOptions:
             self.stiffness_floor = _positive("stiffness_floor", self.stiffness_floor)
         if self.initial_stiffness is not None:
             self.initial_stiffness = _positive("initial_stiffness", self.initial_stiffness)
+        try:
+            self.friction_model = FrictionModel(self.friction_model)
+        except ValueError:
+            raise ConfigError("contact.friction_model",
+                              f"must be 'surface' or 'centreline', got {self.friction_model!r}") from None
         self.margin = _positive("margin", self.margin, allow_zero=True)
         self.penetration_limit = _positive("penetration_limit", self.penetration_limit)
         self.parallel_smoothing = _positive("parallel_smoothing", self.parallel_smoothing, allow_zero=True)

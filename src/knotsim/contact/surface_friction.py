@@ -1,0 +1,225 @@
+"""Smooth Coulomb friction at the rods' surfaces: slip of the surface points, rolling and spin.
+
+The law of docs/physics.md §3.5. A contact pair joins edge a (nodes ``x0, x1``, edge angle
+``θ_a``, radius ``h_a``) and edge b (nodes ``x2, x3``, ``θ_b``, ``h_b``); its 14 unknowns are
+``z = (x0, x1, x2, x3, θ_a, θ_b)`` (m, m, m, m, rad, rad). At the Newton iterate, with the
+velocities ``ż = (z − z_prev)/dt``:
+
+* normal ``n = S/|S|``, ``S = F_c,0 + F_c,1`` (contact force on edge a; points from b to a) and
+  normal force ``F_n = |S|`` (N);
+* tangent ``t_a = e_a/l_a``, ``e_a = x1 − x0``, ``l_a = |e_a|``; likewise ``t_b``;
+* angular velocity of a cross-section ``Ω = t × ṫ + θ̇ t`` (reference frames are time-parallel);
+  with ``ṫ = (I − t tᵀ) ė / l``, ``t × ṫ = t × ė / l``;
+* surface-point velocities ``v_pa = (1 − β_a) v0 + β_a v1 + Ω_a × (−h_a n)`` and
+  ``v_pb = (1 − β_b) v2 + β_b v3 + Ω_b × (h_b n)``; slip ``u = (I − n nᵀ)(v_pa − v_pb)``;
+* friction on a's surface point ``f = −μ F_n φ(|u|) u`` (the smooth law of
+  :mod:`knotsim.contact.friction`, ``φ(s) = tanh(K2 s/2)/s``), ``−f`` on b's.
+
+The generalised forces are those of virtual power, ``Q = Bᵀ f`` with ``B`` the linear map
+``ż ↦ v_pa − v_pb`` at ``z``:
+
+* ``Q_x0 = (1 − β_a) f − g_a``, ``Q_x1 = β_a f + g_a`` with the lever-arm term
+  ``g_a = −(h_a/l_a) (n × f) × t_a``; ``Q_x2 = −(1 − β_b) f − g_b``, ``Q_x3 = −β_b f + g_b``;
+* ``Q_θa = −h_a (t_a × n)·f``, ``Q_θb = −h_b (t_b × n)·f`` (N m).
+
+``Q · ż = f · u ≤ 0``: the law dissipates at every iterate. The Jacobian ``∂Q/∂z`` (p_prev, θ_prev
+and dt fixed) is exact: it is computed column by column by differentiating every intermediate
+quantity along the unit direction of that unknown (forward mode, written out), including the
+dependence through ``β`` (``∂β/∂p``), ``n`` and ``F_n`` (through ``∂F_c/∂p``) and the tangents.
+Where ``|S| <= TINY_FORCE`` the pair carries no friction.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from knotsim import _vec3 as v3
+from knotsim.contact.friction import TINY_FORCE, slip_functions
+
+#: Number of unknowns of a surface-friction pair: 4 nodes and 2 edge angles.
+PAIR_UNKNOWNS = 14
+
+
+@njit(inline="always", cache=True)
+def _lever(c, t, ed, n):
+    """``−c [(t·n) ė − (n·ė) t]``: the velocity of a's surface point from the tangent's turning."""
+    tn = v3.dot(t, n)
+    ne = v3.dot(n, ed)
+    return (-c * (tn * ed[0] - ne * t[0]), -c * (tn * ed[1] - ne * t[1]), -c * (tn * ed[2] - ne * t[2]))
+
+
+@njit(inline="always", cache=True)
+def _lever_dot(c, cd, t, td, ed, edd, n, nd):
+    """Directional derivative of :func:`_lever` given those of its arguments."""
+    tn = v3.dot(t, n)
+    ne = v3.dot(n, ed)
+    tnd = v3.dot(td, n) + v3.dot(t, nd)
+    ned = v3.dot(nd, ed) + v3.dot(n, edd)
+    out0 = -cd * (tn * ed[0] - ne * t[0]) - c * (tnd * ed[0] + tn * edd[0] - ned * t[0] - ne * td[0])
+    out1 = -cd * (tn * ed[1] - ne * t[1]) - c * (tnd * ed[1] + tn * edd[1] - ned * t[1] - ne * td[1])
+    out2 = -cd * (tn * ed[2] - ne * t[2]) - c * (tnd * ed[2] + tn * edd[2] - ned * t[2] - ne * td[2])
+    return (out0, out1, out2)
+
+
+@njit(inline="always", cache=True)
+def _lever_force(c, t, f, n):
+    """``g = −c [(n·t) f − (f·t) n]``, the lever-arm force on the edge's second node (N)."""
+    nt = v3.dot(n, t)
+    ft = v3.dot(f, t)
+    return (-c * (nt * f[0] - ft * n[0]), -c * (nt * f[1] - ft * n[1]), -c * (nt * f[2] - ft * n[2]))
+
+
+@njit(inline="always", cache=True)
+def _lever_force_dot(c, cd, t, td, f, fd, n, nd):
+    """Directional derivative of :func:`_lever_force`."""
+    nt = v3.dot(n, t)
+    ft = v3.dot(f, t)
+    ntd = v3.dot(nd, t) + v3.dot(n, td)
+    ftd = v3.dot(fd, t) + v3.dot(f, td)
+    out0 = -cd * (nt * f[0] - ft * n[0]) - c * (ntd * f[0] + nt * fd[0] - ftd * n[0] - ft * nd[0])
+    out1 = -cd * (nt * f[1] - ft * n[1]) - c * (ntd * f[1] + nt * fd[1] - ftd * n[1] - ft * nd[1])
+    out2 = -cd * (nt * f[2] - ft * n[2]) - c * (ntd * f[2] + nt * fd[2] - ftd * n[2] - ft * nd[2])
+    return (out0, out1, out2)
+
+
+@njit(cache=True)
+def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, dfc, beta_a, beta_b,
+                          dbeta_a, dbeta_b, force_out, jac_out, want_jacobian=True):
+    """Friction at the surfaces of a contact pair: generalised forces on its 14 unknowns and their
+    exact Jacobian.
+
+    Parameters
+    ----------
+    p, p_prev : (12,) float64, nodes ``x0, x1`` (edge a), ``x2, x3`` (edge b) at the iterate and at
+        the start of the step (m).
+    theta, theta_prev : (2,) float64, edge angles ``θ_a, θ_b`` at the iterate and the start (rad).
+    dt : time step (s).
+    mu : friction coefficient; nu : slip tolerance ν (m/s), ``K2 = 15/ν``.
+    ha, hb : radii of edges a and b (m).
+    fc : (12,) float64, contact force on the 4 nodes at ``p`` (N); dfc : (12, 12) its Jacobian (N/m).
+    beta_a, beta_b : contact ratios at ``p``; dbeta_a, dbeta_b : (12,) float64, ``∂β/∂p`` (1/m).
+    force_out : (14,) float64 output, generalised friction force ``Q`` (N on positions, N m on
+        angles).
+    jac_out : (14, 14) float64 output, ``∂Q/∂z`` (N/m, N, N/rad, N m/rad by block).
+    want_jacobian : when ``False`` only ``force_out`` is computed.
+
+    Returns
+    -------
+    ``(slip, rolling)``: the slip speed ``|u|`` (m/s) and the rolling speed, the magnitude of the
+    tangential surface velocity difference that comes from the cross-sections' rotation,
+    ``|(I − n nᵀ)(Ω_a × (−h_a n) − Ω_b × (h_b n))|`` (m/s).
+    """
+    S = v3.add(v3.load(fc, 0), v3.load(fc, 3))
+    sn = v3.norm(S)
+    if not sn > TINY_FORCE:
+        for r in range(14):
+            force_out[r] = 0.0
+            if want_jacobian:
+                for m in range(14):
+                    jac_out[r, m] = 0.0
+        return 0.0, 0.0
+    n = v3.scale(1.0 / sn, S)
+    idt = 1.0 / dt
+    x0 = v3.load(p, 0)
+    x1 = v3.load(p, 3)
+    x2 = v3.load(p, 6)
+    x3 = v3.load(p, 9)
+    v0 = v3.scale(idt, v3.sub(x0, v3.load(p_prev, 0)))
+    v1 = v3.scale(idt, v3.sub(x1, v3.load(p_prev, 3)))
+    v2 = v3.scale(idt, v3.sub(x2, v3.load(p_prev, 6)))
+    v3_ = v3.scale(idt, v3.sub(x3, v3.load(p_prev, 9)))
+    ea = v3.sub(x1, x0)
+    eb = v3.sub(x3, x2)
+    la = v3.norm(ea)
+    lb = v3.norm(eb)
+    ta = v3.scale(1.0 / la, ea)
+    tb = v3.scale(1.0 / lb, eb)
+    eda = v3.sub(v1, v0)
+    edb = v3.sub(v3_, v2)
+    wa = (theta[0] - theta_prev[0]) * idt
+    wb = (theta[1] - theta_prev[1]) * idt
+    ca = ha / la
+    cb = hb / lb
+    tan = v3.cross(ta, n)
+    tbn = v3.cross(tb, n)
+    # rotational parts of the surface velocities: a's at −h_a n, b's at +h_b n
+    rot_a = v3.axpy(-ha * wa, tan, _lever(ca, ta, eda, n))
+    rot_b = v3.axpy(-hb * wb, tbn, _lever(cb, tb, edb, n))
+    w = v3.sub(v3.add(v3.add(v3.scale(1.0 - beta_a, v0), v3.scale(beta_a, v1)), rot_a),
+               v3.sub(v3.add(v3.scale(1.0 - beta_b, v2), v3.scale(beta_b, v3_)), rot_b))
+    wn = v3.dot(w, n)
+    u = v3.axpy(-wn, n, w)
+    s = v3.norm(u)
+    rr = v3.add(rot_a, rot_b)
+    rolling = v3.norm(v3.axpy(-v3.dot(rr, n), n, rr))
+    _, phi, psi = slip_functions(s, nu)
+    fnorm = sn
+    f = v3.scale(-mu * fnorm * phi, u)
+    ga = _lever_force(ca, ta, f, n)
+    gb = _lever_force(cb, tb, f, n)
+    for r in range(3):
+        force_out[r] = (1.0 - beta_a) * f[r] - ga[r]
+        force_out[3 + r] = beta_a * f[r] + ga[r]
+        force_out[6 + r] = -(1.0 - beta_b) * f[r] - gb[r]
+        force_out[9 + r] = -beta_b * f[r] + gb[r]
+    force_out[12] = -ha * v3.dot(tan, f)
+    force_out[13] = -hb * v3.dot(tbn, f)
+    if not want_jacobian:
+        return s, rolling
+    isn = 1.0 / sn
+    zero = (0.0, 0.0, 0.0)
+    for m in range(14):
+        # unit direction of unknown m: which node moves (node, comp) or which angle turns
+        node = m // 3 if m < 12 else -1
+        comp = m - 3 * node if m < 12 else -1
+        if m < 12:
+            dS = (dfc[0, m] + dfc[3, m], dfc[1, m] + dfc[4, m], dfc[2, m] + dfc[5, m])
+            bad = dbeta_a[m]
+            bbd = dbeta_b[m]
+        else:
+            dS = zero
+            bad = 0.0
+            bbd = 0.0
+        dn = v3.scale(isn, v3.axpy(-v3.dot(n, dS), n, dS))
+        dfn = v3.dot(n, dS)
+        unit = (1.0 if comp == 0 else 0.0, 1.0 if comp == 1 else 0.0, 1.0 if comp == 2 else 0.0)
+        sa = 1.0 if node == 1 else (-1.0 if node == 0 else 0.0)
+        sb = 1.0 if node == 3 else (-1.0 if node == 2 else 0.0)
+        dea = v3.scale(sa, unit)
+        deb = v3.scale(sb, unit)
+        dla = v3.dot(ta, dea)
+        dlb = v3.dot(tb, deb)
+        dta = v3.scale(1.0 / la, v3.axpy(-dla, ta, dea))
+        dtb = v3.scale(1.0 / lb, v3.axpy(-dlb, tb, deb))
+        dca = -ca * dla / la
+        dcb = -cb * dlb / lb
+        dwa = idt if m == 12 else 0.0
+        dwb = idt if m == 13 else 0.0
+        dv0 = v3.scale(idt if node == 0 else 0.0, unit)
+        dv1 = v3.scale(idt if node == 1 else 0.0, unit)
+        dv2 = v3.scale(idt if node == 2 else 0.0, unit)
+        dv3 = v3.scale(idt if node == 3 else 0.0, unit)
+        dtan = v3.add(v3.cross(dta, n), v3.cross(ta, dn))
+        dtbn = v3.add(v3.cross(dtb, n), v3.cross(tb, dn))
+        drot_a = v3.add(_lever_dot(ca, dca, ta, dta, eda, v3.scale(idt, dea), n, dn),
+                        v3.scale(-ha, v3.add(v3.scale(dwa, tan), v3.scale(wa, dtan))))
+        drot_b = v3.add(_lever_dot(cb, dcb, tb, dtb, edb, v3.scale(idt, deb), n, dn),
+                        v3.scale(-hb, v3.add(v3.scale(dwb, tbn), v3.scale(wb, dtbn))))
+        dtr_a = v3.add(v3.scale(bad, v3.sub(v1, v0)), v3.add(v3.scale(1.0 - beta_a, dv0), v3.scale(beta_a, dv1)))
+        dtr_b = v3.add(v3.scale(bbd, v3.sub(v3_, v2)), v3.add(v3.scale(1.0 - beta_b, dv2), v3.scale(beta_b, dv3)))
+        dw = v3.sub(v3.add(dtr_a, drot_a), v3.sub(dtr_b, drot_b))
+        dwn = v3.dot(dw, n) + v3.dot(w, dn)
+        du = v3.sub(v3.axpy(-dwn, n, dw), v3.scale(wn, dn))
+        udu = v3.dot(u, du)
+        df = v3.scale(-mu, v3.add(v3.scale(dfn * phi, u),
+                                  v3.scale(fnorm, v3.add(v3.scale(phi, du), v3.scale(psi * udu, u)))))
+        dga = _lever_force_dot(ca, dca, ta, dta, f, df, n, dn)
+        dgb = _lever_force_dot(cb, dcb, tb, dtb, f, df, n, dn)
+        for r in range(3):
+            jac_out[r, m] = -bad * f[r] + (1.0 - beta_a) * df[r] - dga[r]
+            jac_out[3 + r, m] = bad * f[r] + beta_a * df[r] + dga[r]
+            jac_out[6 + r, m] = bbd * f[r] - (1.0 - beta_b) * df[r] - dgb[r]
+            jac_out[9 + r, m] = -bbd * f[r] - beta_b * df[r] + dgb[r]
+        jac_out[12, m] = -ha * (v3.dot(dtan, f) + v3.dot(tan, df))
+        jac_out[13, m] = -hb * (v3.dot(dtbn, f) + v3.dot(tbn, df))
+    return s, rolling
