@@ -34,7 +34,9 @@ def capstan_rope() -> np.ndarray:
 def test_capstan_tension_ratio(mu):
     rope = ks.RodSpec(capstan_rope(), radius=H, youngs_modulus=1e8, density=1000)
     model = ks.Model([rope], damping=0.05)
-    post = ks.Capsule(model, "post", a=(0, -0.05, 0), b=(0, 0.05, 0), radius=R, mu=mu)
+    # the centre-line friction law, the thin-rope capstan exp(μθ) (the surface law gives the thick
+    # rope's exp(μθ R/(R + h)), tests/contact/test_obstacle_surface_friction.py)
+    post = ks.Capsule(model, "post", a=(0, -0.05, 0), b=(0, 0.05, 0), radius=R, mu=mu, friction_model="centreline")
     t2 = 1.0
     bcs = ks.BoundaryConditions(model)
     bcs.force("load", nodes=[0], force=[0, 0, -t2])

@@ -28,6 +28,27 @@ target and relaxes down towards it; it never drops below ``stiffness_scaler × (
 1 m/s²) / h_min``. A step whose deepest penetration exceeds ``penetration_limit × h`` is rejected
 (and, adaptive, retried with ``k_c × 4``).
 
+Friction model (``friction_model``): ``"surface"`` (default) applies friction at the node's
+surface point ``x − h n``, whose velocity includes the rotation of the rod's cross-section (the
+mean angular velocity of the node's edges), so a rod can roll or spin on the obstacle; the friction
+then also acts on the neighbouring nodes and the edge angles (11-unknown blocks, kernels in
+:mod:`knotsim.contact.obstacle_surface_kernels`, law in ``docs/_obstacle_surface_friction.md``).
+``"centreline"`` applies it to the node alone, with the node's velocity (3x3 blocks; the results
+of knotsim before the surface model, bit for bit).
+
+Free spin: a capsule or sphere given ``spin_inertia`` (kg m²) turns freely on a frictionless axle,
+the capsule about its own axis, the sphere about ``spin_axis`` (through its centre) or, without
+one, about any axis (a ball joint, isotropic inertia); ``initial_spin`` (rad/s, a 3-vector,
+projected on the free axes) starts it. The spin ``ω`` is run state (saved by :meth:`save_state`)
+and logged as ``<name>_spin_x, _spin_y, _spin_z`` (rad/s). It is advanced once per accepted step,
+implicitly with the rods' state of that step frozen (a staggered scheme, see
+:func:`~knotsim.contact.obstacle_surface_kernels.spin_update`): ``I (ω_{n+1} − ω_n)/dt`` equals the
+friction moment about the axis at ``ω_{n+1}``; the rods' step uses ``ω_n``. Each half is implicit
+and dissipative, so the scheme is stable for any ``I > 0`` and ``dt`` (a massless axle is the limit
+of a small ``I``); its limits: first order, and the rods see the obstacle's surface speed one step
+late, so the angular momentum exchanged during a step can be off by up to about ``μ F_n R dt`` (the
+exact fully coupled solve would need the spin as an unknown of Newton's system).
+
 Reaction: :meth:`Obstacle.stats` logs the force (N) the rods exert on the obstacle,
 ``<name>_fx, <name>_fy, <name>_fz``, its moment (N m) about the current pivot, ``<name>_mx,
 <name>_my, <name>_mz`` (forces applied at the surface points ``x − (Δ − R) n``), ``<name>_n_contacts``
@@ -42,12 +63,15 @@ import numpy as np
 
 from knotsim.bc.paths import Path, as_path
 from knotsim.contact.obstacle_kernels import CAPSULE, PLANE, SPHERE, obstacle_evaluate
+from knotsim.contact.obstacle_surface_kernels import STENCIL, obstacle_surface_evaluate, spin_update
 from knotsim.errors import ConfigError, GeometryError
 
 __all__ = ["Capsule", "Obstacle", "Plane", "Sphere", "rotation_matrix"]
 
 #: Weight of the new target in the downward moving average of the adaptive stiffness (per step).
 STIFFNESS_RELAX = 0.02
+#: Values of ``friction_model``.
+FRICTION_MODELS = ("surface", "centreline")
 #: Factor applied to an adaptive stiffness after a step rejected for penetration.
 PENETRATION_BOOST = 4.0
 
@@ -82,6 +106,45 @@ def _number(field: str, value, allow_zero: bool = False) -> float:
     return float(value)
 
 
+def node_stencils(model, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Surface-friction stencils of global ``nodes (k,)``: unknowns ``(k, 11)`` int64, laid out
+    ``x_{i−1}, θ_A, x_i, θ_B, x_{i+1}`` (edge ``A = (i−1, i)``, ``B = (i, i+1)``; closed rods wrap
+    around), and edge weights ``(k, 2)``: ``(½, ½)``, or ``(0, 1)`` / ``(1, 0)`` at the first / last
+    node of an open rod, whose missing edge's slots are filled with the unknowns of nodes ``2`` and
+    edge ``1`` (first node) or node ``N − 3`` and edge ``N − 3`` (last node), which the block leaves at
+    zero (so no unknown repeats within a block and the bandwidth is that of a bending stencil). A
+    2-node rod has only 7 unknowns: its padding repeats them (with zero entries)."""
+    m = model
+    rod = m.node_rod[nodes]
+    N = m.rod_node_start[rod + 1] - m.rod_node_start[rod]
+    i = nodes - m.rod_node_start[rod]
+    d0 = m.rod_dof_start[rod]
+    closed = m.rod_closed[rod]
+    prev_n = np.where(closed, (i - 1) % N, i - 1)
+    next_n = np.where(closed, (i + 1) % N, i + 1)
+    edge_a = np.where(closed, (i - 1) % N, i - 1)
+    edge_b = i.copy()
+    wa = np.full(nodes.size, 0.5)
+    wb = np.full(nodes.size, 0.5)
+    first = ~closed & (i == 0)
+    last = ~closed & (i == N - 1)
+    wa[first], wb[first] = 0.0, 1.0
+    wa[last], wb[last] = 1.0, 0.0
+    pad = np.minimum(2, N - 1)  # padding node after the first node (repeats node 1 in a 2-node rod)
+    prev_n = np.where(first, pad, prev_n)
+    edge_a = np.where(first, pad - 1, edge_a)
+    next_n = np.where(last, np.maximum(N - 3, 0), next_n)
+    edge_b = np.where(last, np.maximum(N - 3, 0), edge_b)
+    cols = []
+    for node, th in ((prev_n, edge_a), (i, edge_b), (next_n, None)):
+        cols += [d0 + 4 * node + k for k in range(3)]
+        if th is not None:
+            cols.append(d0 + 4 * th + 3)
+    # column order: x_{i−1}, θ_A, x_i, θ_B, x_{i+1}
+    dofs = np.stack(cols, axis=1).astype(np.int64)
+    return np.ascontiguousarray(dofs), np.ascontiguousarray(np.stack([wa, wb], axis=1))
+
+
 class Obstacle:
     """A rigid obstacle in frictional contact with the rods of ``model`` (see the module doc).
 
@@ -89,8 +152,10 @@ class Obstacle:
     (default 0); ``delta`` IMC distance tolerance δ (m, default 5e-4); ``nu`` slip tolerance (m/s,
     default 1e-4); ``stiffness`` k_c (N/m, default adaptive); ``stiffness_scaler`` (default 500);
     ``penetration_limit`` (fraction of the rod radius, default 0.2); ``path``, ``angular_velocity``,
-    ``pivot`` (motion); ``rods``: rods (names or indices) that touch it, default all.
-    Subclasses set the geometry: :class:`Plane`, :class:`Capsule`, :class:`Sphere`.
+    ``pivot`` (motion); ``rods``: rods (names or indices) that touch it, default all;
+    ``friction_model``: ``"surface"`` (default) or ``"centreline"``; ``spin_inertia`` (kg m²),
+    ``spin_axis`` (spheres), ``initial_spin`` (rad/s): free spin (capsules and spheres; see the
+    module doc). Subclasses set the geometry: :class:`Plane`, :class:`Capsule`, :class:`Sphere`.
     """
 
     kind = -1
@@ -98,7 +163,8 @@ class Obstacle:
 
     def __init__(self, model, name: str, *, mu: float = 0.0, delta: float = 5e-4, nu: float = 1e-4,
                  stiffness: float | None = None, stiffness_scaler: float = 500.0, penetration_limit: float = 0.2,
-                 path=None, angular_velocity=None, pivot=None, rods=None):
+                 path=None, angular_velocity=None, pivot=None, rods=None, friction_model: str = "surface",
+                 spin_inertia: float | None = None, spin_axis=None, initial_spin=None):
         if not isinstance(name, str) or not name:
             raise ConfigError("obstacle.name", f"an obstacle needs a non-empty name, got {name!r}")
         self.name = name
@@ -110,12 +176,16 @@ class Obstacle:
         self.stiffness = None if stiffness is None else _number(f"{f}.stiffness", stiffness)
         self.stiffness_scaler = _number(f"{f}.stiffness_scaler", stiffness_scaler)
         self.penetration_limit = _number(f"{f}.penetration_limit", penetration_limit)
+        if not isinstance(friction_model, str) or friction_model not in FRICTION_MODELS:
+            raise ConfigError(f"{f}.friction_model", f"must be 'surface' or 'centreline', got {friction_model!r}")
+        self.friction_model = str(friction_model)
         try:
             self.path: Path | None = None if path is None else as_path(path)
         except ConfigError as exc:
             raise ConfigError(f"{f}.{exc.field}", str(exc).split(": ", 1)[1]) from None
         self.omega = np.zeros(3) if angular_velocity is None else _vec3(f"{f}.angular_velocity", angular_velocity)
         self._center0 = None if pivot is None else _vec3(f"{f}.pivot", pivot)
+        self._init_spin(f, spin_inertia, spin_axis, initial_spin, angular_velocity, pivot)
         m = model
         if rods is None:
             sel = np.arange(m.n_rods)
@@ -140,6 +210,10 @@ class Obstacle:
         self._ff = np.zeros((k, 3))
         self._gap = np.full(k, np.inf)
         self._normal = np.zeros((k, 3))
+        self._vs = np.zeros((k, 3))
+        if self.friction_model == "surface":
+            self._stencil, self._weights = node_stencils(m, self.nodes)
+            self._blocks = np.zeros((k, STENCIL, STENCIL))
         self._stats: dict = {}
         self._time = 0.0
         self._set_pose(0.0, 1.0)
@@ -149,6 +223,43 @@ class Obstacle:
             if start is not None and np.linalg.norm(start - self._ref0) > 1e-9 * max(1.0, float(np.abs(self._ref0).max())):
                 raise ConfigError(f"{f}.waypoints", f"absolute waypoints start at {start.tolist()} m but the "
                                                     f"obstacle's centre is at {self._ref0.tolist()} m")
+
+    def _init_spin(self, f, inertia, axis, initial, angular_velocity, pivot) -> None:
+        """Validate the free-spin options; set ``spin_inertia``, ``spin_proj (3, 3)`` and ``spin (3,)``."""
+        self.spin_inertia = None
+        self.spin_proj = np.zeros((3, 3))
+        self.spin = np.zeros(3)
+        if inertia is None:
+            for key, val in (("spin_axis", axis), ("initial_spin", initial)):
+                if val is not None:
+                    raise ConfigError(f"{f}.{key}", "only for a free-spinning obstacle (give spin_inertia)")
+            return
+        if self.kind == PLANE:
+            raise ConfigError(f"{f}.spin_inertia", "a plane cannot spin freely (only capsules and spheres)")
+        if angular_velocity is not None or pivot is not None:
+            raise ConfigError(f"{f}.{'angular_velocity' if angular_velocity is not None else 'pivot'}",
+                              "a free-spinning obstacle turns about its own axis or centre (spin_inertia "
+                              "excludes angular_velocity and pivot)")
+        self.spin_inertia = _number(f"{f}.spin_inertia", inertia)
+        if self.kind == CAPSULE:
+            if axis is not None:
+                raise ConfigError(f"{f}.spin_axis", "a capsule spins about its own axis a-b")
+            ax = self.b - self.a
+            if np.linalg.norm(ax) == 0.0:
+                raise ConfigError(f"{f}.spin_inertia", "a zero-length capsule has no axis to spin about")
+        elif axis is not None:
+            ax = _vec3(f"{f}.spin_axis", axis)
+            if np.linalg.norm(ax) == 0.0:
+                raise ConfigError(f"{f}.spin_axis", "must not be the zero vector")
+        else:
+            ax = None
+        if ax is None:
+            self.spin_proj = np.eye(3)
+        else:
+            ax = ax / np.linalg.norm(ax)
+            self.spin_proj = np.outer(ax, ax)
+        if initial is not None:
+            self.spin = self.spin_proj @ _vec3(f"{f}.initial_spin", initial)
 
     # ------------------------------------------------------------------ geometry
     @property
@@ -212,18 +323,33 @@ class Obstacle:
         return float(np.max(np.where(near & (vn > 0), self.node_mass * vn / self._dt_ref, 0.0)))
 
     def block_dofs(self) -> np.ndarray:
-        """``(k, 3)`` coordinates of every node of the obstacle's rods (the pattern never changes)."""
-        return self._dofs
+        """Unknowns of every node's block (the pattern never changes): ``(k, 3)`` node coordinates
+        (``"centreline"``) or ``(k, 11)`` surface-friction stencils (``"surface"``, see
+        :func:`node_stencils`)."""
+        return self._stencil if self.friction_model == "surface" else self._dofs
 
     #: constant: the blocks are the same node coordinates every step
     pattern_version = 0
 
+    @property
+    def surface_omega(self) -> np.ndarray:
+        """Angular velocity of the obstacle's surface (rad/s): the free spin, or the prescribed one."""
+        return self.spin if self.spin_inertia is not None else self.omega
+
     def evaluate(self, q, q_prev, dt, residual, want_jacobian):
-        """Add ``−(contact + friction force)`` (N) to ``residual``; return ``(k_c ΣE (J), (k,3,3) | None)``."""
+        """Add ``−(contact + friction force)`` (N) to ``residual``; return ``(k_c ΣE (J), blocks | None)``
+        with blocks ``(k, 3, 3)`` or ``(k, 11, 11)`` (see :meth:`block_dofs`)."""
         m = self.model
-        e = obstacle_evaluate(self.kind, self._geom, self.nodes, m.node_dof, self.node_h, q, q_prev, dt,
-                              self.delta, self.k_c, self.mu, self.nu, self._vel, self.omega, self._cen, residual,
-                              bool(want_jacobian), self._blocks, self._fc, self._ff, self._gap, self._normal)
+        if self.friction_model == "surface":
+            e = obstacle_surface_evaluate(self.kind, self._geom, self._stencil, self._weights, self.node_h, q, q_prev,
+                                          dt, self.delta, self.k_c, self.mu, self.nu, self._vel, self.surface_omega,
+                                          self._cen, residual, bool(want_jacobian), self._blocks, self._fc, self._ff,
+                                          self._gap, self._normal, self._vs)
+        else:
+            e = obstacle_evaluate(self.kind, self._geom, self.nodes, m.node_dof, self.node_h, q, q_prev, dt,
+                                  self.delta, self.k_c, self.mu, self.nu, self._vel, self.surface_omega, self._cen,
+                                  residual, bool(want_jacobian), self._blocks, self._fc, self._ff, self._gap,
+                                  self._normal)
         self._q_eval = q.copy()
         self._qp_eval, self._dt_eval = q_prev, dt
         return float(e), (self._blocks if want_jacobian else None)
@@ -286,9 +412,34 @@ class Obstacle:
 
     def stats(self) -> dict:
         """Reaction force (N) and moment (N m) on the obstacle and contact numbers of the last accepted
-        step (see the module doc)."""
+        step (see the module doc); a free-spinning obstacle's spin is advanced here, once per accepted
+        step, and logged at the step's end."""
         self._fmax_accepted = self._fmax_pending
-        return dict(self._stats)
+        out = dict(self._stats)
+        if self.spin_inertia is not None:
+            self._advance_spin()
+            n = self.name
+            out.update({f"{n}_spin_x": float(self.spin[0]), f"{n}_spin_y": float(self.spin[1]),
+                        f"{n}_spin_z": float(self.spin[2])})
+        return out
+
+    def _advance_spin(self) -> None:
+        """``ω_{n+1}`` from the last evaluation (the accepted step) by :func:`spin_update`."""
+        q = getattr(self, "_q_eval", None)
+        if q is None or not self.nodes.size or self.mu == 0.0:
+            return
+        fn = np.sqrt(np.einsum("ij,ij->i", self._fc, self._fc))
+        on = fn > 0.0
+        if not np.any(on):
+            return
+        if self.friction_model == "surface":
+            vs = self._vs[on]
+        else:  # the node's own velocity
+            vs = (q[self._dofs[on]] - self._qp_eval[self._dofs[on]]) / self._dt_eval
+        y = q[self._dofs[on]] - self.node_h[on, None] * self._normal[on]
+        self.spin, _ = spin_update(self.spin, self.spin_proj, self.spin_inertia, self._dt_eval, self.mu, self.nu,
+                                   np.ascontiguousarray(fn[on]), np.ascontiguousarray(self._normal[on]),
+                                   np.ascontiguousarray(y), np.ascontiguousarray(vs), self._vel, self._cen)
 
     def reaction(self) -> tuple[np.ndarray, np.ndarray]:
         """``(force (3,), moment (3,))`` on the obstacle at the last accepted step (N, N m)."""
@@ -305,6 +456,8 @@ class Obstacle:
         bound = self.path.bound_state() if self.path is not None else None
         if bound is not None:
             arrays["path_start"] = bound
+        if self.spin_inertia is not None:
+            arrays["spin"] = self.spin.copy()
         return meta, arrays
 
     def load_state(self, meta: dict, arrays: dict) -> None:
@@ -316,6 +469,8 @@ class Obstacle:
         self._dt_ref = float(meta["dt_ref"])
         if self.path is not None and "path_start" in arrays:
             self.path.bind(np.array(arrays["path_start"], float))
+        if self.spin_inertia is not None and "spin" in arrays:
+            self.spin = np.array(arrays["spin"], float)
 
 
 class Plane(Obstacle):

@@ -17,10 +17,12 @@ from knotsim._util.fields import (
 from knotsim.errors import ConfigError
 
 _COMMON = ("type", "name", "rods", "mu", "delta", "nu", "stiffness", "stiffness_scaler", "penetration_limit",
-           "velocity", "waypoints", "angular_velocity", "pivot")
-_GEOMETRY = {"plane": ("point", "normal"), "capsule": ("a", "b", "radius"), "sphere": ("center", "radius")}
-_NUMBERS = ("mu", "delta", "nu", "stiffness", "stiffness_scaler", "penetration_limit", "radius")
-_VECTORS = ("point", "normal", "a", "b", "center", "angular_velocity", "pivot")
+           "velocity", "waypoints", "angular_velocity", "pivot", "friction_model")
+_SPIN = ("spin_inertia", "initial_spin")
+_GEOMETRY = {"plane": ("point", "normal"), "capsule": ("a", "b", "radius") + _SPIN,
+             "sphere": ("center", "radius", "spin_axis") + _SPIN}
+_NUMBERS = ("mu", "delta", "nu", "stiffness", "stiffness_scaler", "penetration_limit", "radius", "spin_inertia")
+_VECTORS = ("point", "normal", "a", "b", "center", "angular_velocity", "pivot", "spin_axis", "initial_spin")
 #: Names an obstacle may not take (interactions and log columns of their own).
 _RESERVED = ("contact", "elastic", "kinetic", "gravity", "time", "dt")
 
@@ -49,6 +51,8 @@ def parse_obstacle(t, i: int) -> tuple[str, str, dict]:
     for key in _VECTORS:
         if key in t:
             kw[key] = as_vec3(t[key], f"{path}.{key}")
+    if "friction_model" in t:
+        kw["friction_model"] = get_field(t, "friction_model", path, as_string)
     if "velocity" in t and "waypoints" in t:
         raise ConfigError(f"{path}.velocity", "give at most one of 'velocity' or 'waypoints'")
     if "velocity" in t:

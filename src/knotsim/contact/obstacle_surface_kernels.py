@@ -1,0 +1,397 @@
+"""Numba kernels of surface friction against rigid obstacles: rolling and spinning nodes, free spin.
+
+The law of ``docs/_obstacle_surface_friction.md`` (to be merged into docs/physics.md). A node
+``x_i`` (radius ``h``) touches an obstacle with unit normal ``n`` (from the obstacle to the node)
+and normal force ``F_n = −k_c E'(Δ)`` (N), exactly as in :mod:`knotsim.contact.obstacle_kernels`.
+Its stencil has 11 unknowns, laid out like a bending stencil (``Model.bend_dofs``)::
+
+    z = (x_{i−1} (3), θ_A, x_i (3), θ_B, x_{i+1} (3))      (m, rad)
+
+with edge ``A = (x_{i−1}, x_i)`` and edge ``B = (x_i, x_{i+1})``. Each edge carries a weight
+``w_A, w_B``: ``½, ½`` at an interior node (and at every node of a closed rod), ``1, 0`` or ``0, 1``
+at an open rod's end node, whose missing edge's slots are padding (unknowns of the same rod nearby,
+with zero force and zero Jacobian). At the Newton iterate, with ``ż = (z − z_prev)/dt``:
+
+* edge angular velocity ``Ω_e = t_e × ė_e / l_e + θ̇_e t_e`` (time-parallel reference frames), and
+  the cross-section's at the node ``Ω_i = w_A Ω_A + w_B Ω_B`` (rad/s);
+* surface point ``y = x_i − h n``, its velocity ``v_s = v_i + Ω_i × (−h n)`` (m/s);
+* slip ``u = (I − n nᵀ)(v_s − w(y))`` with the obstacle's surface velocity
+  ``w(y) = vel + ω × (y − c)``; friction on the rod's surface point ``f = −μ F_n φ(|u|) u`` (N),
+  the smooth law of :mod:`knotsim.contact.friction`;
+* generalised forces by virtual power, ``Q = Bᵀ f`` with ``B`` the linear map ``ż ↦ v_s``:
+  ``Q_{x_i} = f + g_A − g_B``, ``Q_{x_{i−1}} = −g_A``, ``Q_{x_{i+1}} = g_B`` with the lever-arm
+  forces ``g_e = −(h w_e / l_e) [(n·t_e) f − (f·t_e) n]``, and ``Q_{θ_e} = −h w_e (t_e × n)·f``
+  (N m). ``Q·ż = f·v_s``, so the power of friction on rods and obstacle, ``f·(v_s − w) = f·u``, is
+  never positive.
+
+The Jacobian ``∂Q/∂z`` (z_prev, dt fixed) is exact, computed column by column by forward-mode
+directional derivatives of every intermediate quantity (through ``n``, ``F_n``, the tangents, the
+lengths and ``y``). :func:`spin_update` advances a free-spinning obstacle (see its docstring).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from knotsim import _vec3 as v3
+from knotsim.contact.friction import FRICTION_SHARPNESS, slip_functions
+from knotsim.contact.obstacle_kernels import node_distance
+from knotsim.contact.potential import imc_energy_derivatives
+
+#: Unknowns of a node's surface-friction stencil: x_{i−1}, θ_A, x_i, θ_B, x_{i+1}.
+STENCIL = 11
+_ZERO = (0.0, 0.0, 0.0)
+
+
+@njit(cache=True)
+def _lever(c, t, ed, n):
+    """``−c [(t·n) ė − (n·ė) t]`` (m/s): the surface point's velocity from the tangent's turning,
+    ``c (t × ė) × (−n)`` with ``c = h w / l``."""
+    tn = v3.dot(t, n)
+    ne = v3.dot(n, ed)
+    return (-c * (tn * ed[0] - ne * t[0]), -c * (tn * ed[1] - ne * t[1]), -c * (tn * ed[2] - ne * t[2]))
+
+
+@njit(cache=True)
+def _lever_dot(c, cd, t, td, ed, edd, n, nd):
+    """Directional derivative of :func:`_lever` given those of its arguments (``cd, td, edd, nd``)."""
+    tn = v3.dot(t, n)
+    ne = v3.dot(n, ed)
+    tnd = v3.dot(td, n) + v3.dot(t, nd)
+    ned = v3.dot(nd, ed) + v3.dot(n, edd)
+    return (-cd * (tn * ed[0] - ne * t[0]) - c * (tnd * ed[0] + tn * edd[0] - ned * t[0] - ne * td[0]),
+            -cd * (tn * ed[1] - ne * t[1]) - c * (tnd * ed[1] + tn * edd[1] - ned * t[1] - ne * td[1]),
+            -cd * (tn * ed[2] - ne * t[2]) - c * (tnd * ed[2] + tn * edd[2] - ned * t[2] - ne * td[2]))
+
+
+@njit(cache=True)
+def _lever_force(c, t, f, n):
+    """``g = −c [(n·t) f − (f·t) n]`` (N): the edge's lever-arm force on its second node."""
+    nt = v3.dot(n, t)
+    ft = v3.dot(f, t)
+    return (-c * (nt * f[0] - ft * n[0]), -c * (nt * f[1] - ft * n[1]), -c * (nt * f[2] - ft * n[2]))
+
+
+@njit(cache=True)
+def _lever_force_dot(c, cd, t, td, f, fd, n, nd):
+    """Directional derivative of :func:`_lever_force`."""
+    nt = v3.dot(n, t)
+    ft = v3.dot(f, t)
+    ntd = v3.dot(nd, t) + v3.dot(n, td)
+    ftd = v3.dot(fd, t) + v3.dot(f, td)
+    return (-cd * (nt * f[0] - ft * n[0]) - c * (ntd * f[0] + nt * fd[0] - ftd * n[0] - ft * nd[0]),
+            -cd * (nt * f[1] - ft * n[1]) - c * (ntd * f[1] + nt * fd[1] - ftd * n[1] - ft * nd[1]),
+            -cd * (nt * f[2] - ft * n[2]) - c * (ntd * f[2] + nt * fd[2] - ftd * n[2] - ft * nd[2]))
+
+
+@njit(cache=True)
+def _edge(z, zp, a, b, th, w, h, idt):
+    """Tangent ``t``, length ``l`` (m), edge rate ``ė`` (m/s), spin ``θ̇`` (rad/s) and ``c = h w / l``
+    of the edge from stencil slot ``a`` to slot ``b`` (angle slot ``th``); zeros when ``w == 0``."""
+    if not w > 0.0:
+        return _ZERO, 1.0, _ZERO, 0.0, 0.0
+    e = (z[b] - z[a], z[b + 1] - z[a + 1], z[b + 2] - z[a + 2])
+    ep = (zp[b] - zp[a], zp[b + 1] - zp[a + 1], zp[b + 2] - zp[a + 2])
+    l = v3.norm(e)
+    return v3.scale(1.0 / l, e), l, v3.scale(idt, v3.sub(e, ep)), (z[th] - zp[th]) * idt, h * w / l
+
+
+@njit(cache=True)
+def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel, omega, center, force, jac,
+                         want_jacobian, gr, H):
+    """Contact and surface friction of one node: generalised force on its stencil and its Jacobian.
+
+    Parameters
+    ----------
+    kind, geom : obstacle type and packed geometry (:mod:`knotsim.contact.obstacle_kernels`).
+    z, zp : (11,) float64, the stencil's unknowns at the iterate and at the start of the step (m,
+        rad; layout in the module doc).
+    wA, wB : weights of edges A and B in the node's angular velocity (½ each inside a rod, 1 and 0
+        at an open end).
+    dt : time step (s). h : rod radius (m). tol : IMC tolerance δ (m). k_c : contact stiffness
+        (N/m). mu : friction coefficient. nu : slip tolerance ν (m/s).
+    vel, omega, center : (3,) the obstacle's rigid motion, surface velocity
+        ``vel + omega × (y − center)`` at a point ``y`` (m/s, rad/s, m).
+    force : (11,) output, contact plus friction generalised force (N on positions, N m on angles).
+    jac : (11, 11) output, ``∂force/∂z`` (N/m, N, N/rad, N m/rad by block), when ``want_jacobian``.
+    gr, H : (3,) and (3, 3) scratch (the distance gradient ``n`` and Hessian on return).
+
+    Returns
+    -------
+    ``(k_c E (J), gap Δ − d (m), F_c (3-tuple, N), f (3-tuple, N), v_s (3-tuple, m/s))``: the
+    contact force on the node, the friction force at its surface point and the surface point's
+    velocity (zeros where there is no friction).
+    """
+    for r in range(STENCIL):
+        force[r] = 0.0
+        if want_jacobian:
+            for m in range(STENCIL):
+                jac[r, m] = 0.0
+    delta, R = node_distance(kind, z[4:7], geom, gr, H)
+    d = h + R
+    if delta >= d + tol:
+        return 0.0, delta - d, _ZERO, _ZERO, _ZERO
+    E, dE, d2E = imc_energy_derivatives(delta, d, tol)
+    n = (gr[0], gr[1], gr[2])
+    fn = -k_c * dE  # >= 0
+    fc = v3.scale(fn, n)
+    for k in range(3):
+        force[4 + k] = fc[k]
+        if want_jacobian:
+            for m in range(3):
+                jac[4 + k, 4 + m] = -k_c * (d2E * n[k] * n[m] + dE * H[k, m])
+    if not (mu > 0.0 and fn > 0.0):
+        return k_c * E, delta - d, fc, _ZERO, _ZERO
+    idt = 1.0 / dt
+    vi = ((z[4] - zp[4]) * idt, (z[5] - zp[5]) * idt, (z[6] - zp[6]) * idt)
+    tA, lA, edA, omA, cA = _edge(z, zp, 0, 4, 3, wA, h, idt)
+    tB, lB, edB, omB, cB = _edge(z, zp, 4, 8, 7, wB, h, idt)
+    tAn = v3.cross(tA, n)
+    tBn = v3.cross(tB, n)
+    rot = v3.add(v3.axpy(-h * wA * omA, tAn, _lever(cA, tA, edA, n)),
+                 v3.axpy(-h * wB * omB, tBn, _lever(cB, tB, edB, n)))
+    vs = v3.add(vi, rot)
+    om = (omega[0], omega[1], omega[2])
+    y = v3.axpy(-h, n, (z[4], z[5], z[6]))
+    wo = v3.add((vel[0], vel[1], vel[2]), v3.cross(om, v3.sub(y, (center[0], center[1], center[2]))))
+    wv = v3.sub(vs, wo)
+    wn = v3.dot(wv, n)
+    u = v3.axpy(-wn, n, wv)
+    s = v3.norm(u)
+    _, phi, psi = slip_functions(s, nu)
+    f = v3.scale(-mu * fn * phi, u)
+    gA = _lever_force(cA, tA, f, n)
+    gB = _lever_force(cB, tB, f, n)
+    mid = v3.sub(v3.add(f, gA), gB)
+    for k in range(3):
+        force[k] -= gA[k]
+        force[4 + k] += mid[k]
+        force[8 + k] += gB[k]
+    force[3] = -h * wA * v3.dot(tAn, f)
+    force[7] = -h * wB * v3.dot(tBn, f)
+    if not want_jacobian:
+        return k_c * E, delta - d, fc, f, vs
+    for m in range(STENCIL):
+        if m == 3 or m == 7:
+            node = -1
+            comp = 0
+        else:
+            node = 0 if m < 3 else (1 if m < 7 else 2)
+            comp = m - 4 * node
+        unit = (1.0 if comp == 0 else 0.0, 1.0 if comp == 1 else 0.0, 1.0 if comp == 2 else 0.0)
+        if node == 1:
+            dn = (H[0, comp], H[1, comp], H[2, comp])
+            dfn = -k_c * d2E * n[comp]
+            dx = unit
+        else:
+            dn = _ZERO
+            dfn = 0.0
+            dx = _ZERO
+        # edge A runs from slot node 0 to node 1, edge B from node 1 to node 2
+        sA = (1.0 if node == 1 else (-1.0 if node == 0 else 0.0)) if wA > 0.0 else 0.0
+        sB = (1.0 if node == 2 else (-1.0 if node == 1 else 0.0)) if wB > 0.0 else 0.0
+        deA = v3.scale(sA, unit)
+        deB = v3.scale(sB, unit)
+        dlA = v3.dot(tA, deA)
+        dlB = v3.dot(tB, deB)
+        dtA = v3.scale(1.0 / lA, v3.axpy(-dlA, tA, deA))
+        dtB = v3.scale(1.0 / lB, v3.axpy(-dlB, tB, deB))
+        dcA = -cA * dlA / lA
+        dcB = -cB * dlB / lB
+        domA = idt if m == 3 else 0.0
+        domB = idt if m == 7 else 0.0
+        dtAn = v3.add(v3.cross(dtA, n), v3.cross(tA, dn))
+        dtBn = v3.add(v3.cross(dtB, n), v3.cross(tB, dn))
+        drot = v3.add(
+            v3.sub(_lever_dot(cA, dcA, tA, dtA, edA, v3.scale(idt, deA), n, dn),
+                   v3.scale(h * wA, v3.add(v3.scale(domA, tAn), v3.scale(omA, dtAn)))),
+            v3.sub(_lever_dot(cB, dcB, tB, dtB, edB, v3.scale(idt, deB), n, dn),
+                   v3.scale(h * wB, v3.add(v3.scale(domB, tBn), v3.scale(omB, dtBn)))))
+        dy = v3.axpy(-h, dn, dx)
+        dwv = v3.sub(v3.axpy(idt, dx, drot), v3.cross(om, dy))
+        dwn = v3.dot(dwv, n) + v3.dot(wv, dn)
+        du = v3.sub(v3.axpy(-dwn, n, dwv), v3.scale(wn, dn))
+        udu = v3.dot(u, du)
+        df = v3.scale(-mu, v3.add(v3.scale(dfn * phi, u),
+                                  v3.scale(fn, v3.add(v3.scale(phi, du), v3.scale(psi * udu, u)))))
+        dgA = _lever_force_dot(cA, dcA, tA, dtA, f, df, n, dn)
+        dgB = _lever_force_dot(cB, dcB, tB, dtB, f, df, n, dn)
+        for k in range(3):
+            jac[k, m] -= dgA[k]
+            jac[4 + k, m] += df[k] + dgA[k] - dgB[k]
+            jac[8 + k, m] += dgB[k]
+        jac[3, m] = -h * wA * (v3.dot(dtAn, f) + v3.dot(tAn, df))
+        jac[7, m] = -h * wB * (v3.dot(dtBn, f) + v3.dot(tBn, df))
+    return k_c * E, delta - d, fc, f, vs
+
+
+@njit(cache=True)
+def obstacle_surface_evaluate(kind, geom, stencil, weights, node_h, q, q_prev, dt, tol, k_c, mu, nu, vel, omega,
+                              center, residual, want_jacobian, blocks, fc, ff, gap, normal, vs):
+    """Contact and surface friction of every node with one obstacle (:func:`node_surface_contact`).
+
+    ``stencil (k, 11)`` int64 unknowns of each node's stencil, ``weights (k, 2)`` its edge weights
+    ``w_A, w_B``, ``node_h (k,)`` radii (m); ``q``, ``q_prev`` ``(n_dofs,)`` the unknowns at the
+    iterate and at the start of the step. Adds ``−force`` to ``residual``; writes ``blocks (k, 11, 11)``
+    = ``−∂force/∂z`` when ``want_jacobian``; ``fc``, ``ff``, ``normal``, ``vs`` ``(k, 3)`` get the
+    contact force on the node, the friction force at its surface point (N), the normal and the
+    surface point's velocity (m/s); ``gap (k,)`` the gap ``Δ − d`` (m). Returns the energy (J).
+    """
+    gr = np.zeros(3)
+    H = np.zeros((3, 3))
+    jac = np.zeros((STENCIL, STENCIL))
+    force = np.zeros(STENCIL)
+    z = np.zeros(STENCIL)
+    zp = np.zeros(STENCIL)
+    energy = 0.0
+    for i in range(stencil.shape[0]):
+        for j in range(STENCIL):
+            z[j] = q[stencil[i, j]]
+            zp[j] = q_prev[stencil[i, j]]
+        e, g, fcv, ffv, vsv = node_surface_contact(kind, z, zp, weights[i, 0], weights[i, 1], dt, geom, node_h[i],
+                                                   tol, k_c, mu, nu, vel, omega, center, force, jac, want_jacobian,
+                                                   gr, H)
+        energy += e
+        gap[i] = g
+        for k in range(3):
+            fc[i, k] = fcv[k]
+            ff[i, k] = ffv[k]
+            vs[i, k] = vsv[k]
+            normal[i, k] = gr[k]
+        for j in range(STENCIL):
+            residual[stencil[i, j]] -= force[j]
+            if want_jacobian:
+                for m in range(STENCIL):
+                    blocks[i, j, m] = -jac[j, m]
+    return energy
+
+
+@njit(cache=True)
+def _log_cosh(x):
+    """``log cosh x`` for ``x >= 0`` without overflow."""
+    return x + math.log1p(math.exp(-2.0 * x)) - math.log(2.0)
+
+
+@njit(cache=True)
+def spin_objective(spin, spin_prev, proj, inertia, dt, mu, nu, fn, normal, y, vs, vel, center, grad, hess):
+    """The convex function whose minimiser is the obstacle's new spin (see :func:`spin_update`).
+
+    ``Φ(ω) = I |ω − ω_n|² / (2 dt) + Σ μ F_n Γ(|u|)`` (J/s), ``Γ(s) = (2/K2) log cosh(K2 s/2)``
+    (``Γ' = γ``, the smooth Coulomb switch), ``u = (I − n nᵀ)(v_s − vel − ω × (y − c))``. Writes
+    its gradient ``P ∇Φ`` into ``grad (3,)`` (N m) and ``P ∇²Φ P + (I − P)`` into ``hess (3, 3)``
+    (``P = proj``, the projector on the free rotation axes); returns ``Φ``.
+    """
+    k2 = FRICTION_SHARPNESS / nu
+    d = v3.sub((spin[0], spin[1], spin[2]), (spin_prev[0], spin_prev[1], spin_prev[2]))
+    phi_val = 0.5 * inertia / dt * v3.dot(d, d)
+    g = v3.scale(inertia / dt, d)
+    K = np.zeros((3, 3))
+    for a in range(3):
+        K[a, a] = inertia / dt
+    om = (spin[0], spin[1], spin[2])
+    for i in range(fn.shape[0]):
+        n = (normal[i, 0], normal[i, 1], normal[i, 2])
+        r = (y[i, 0] - center[0], y[i, 1] - center[1], y[i, 2] - center[2])
+        w = v3.sub(v3.sub((vs[i, 0], vs[i, 1], vs[i, 2]), (vel[0], vel[1], vel[2])), v3.cross(om, r))
+        u = v3.axpy(-v3.dot(w, n), n, w)
+        s = v3.norm(u)
+        _, ph, ps = slip_functions(s, nu)
+        c = mu * fn[i]
+        phi_val += c * 2.0 / k2 * _log_cosh(0.5 * k2 * s)
+        # ∂u/∂ω = P_n [r]x ; ∇ = Σ [r]xᵀ (c φ u) = Σ r × f with f = −c φ u
+        g = v3.add(g, v3.cross(r, v3.scale(-c * ph, u)))
+        # ∇² = Σ [r]xᵀ P_n c (φ I + ψ u uᵀ) P_n [r]x, column by column
+        for b in range(3):
+            eb = (1.0 if b == 0 else 0.0, 1.0 if b == 1 else 0.0, 1.0 if b == 2 else 0.0)
+            du = v3.cross(r, eb)
+            du = v3.axpy(-v3.dot(du, n), n, du)
+            col = v3.axpy(c * ps * v3.dot(u, du), u, v3.scale(c * ph, du))
+            col = v3.axpy(-v3.dot(col, n), n, col)
+            rc = v3.cross(col, r)  # [r]xᵀ col = −r × col = col × r
+            for a in range(3):
+                K[a, b] += rc[a]
+    for a in range(3):
+        grad[a] = proj[a, 0] * g[0] + proj[a, 1] * g[1] + proj[a, 2] * g[2]
+    for a in range(3):
+        for b in range(3):
+            acc = 0.0
+            for p in range(3):
+                for m in range(3):
+                    acc += proj[a, p] * K[p, m] * proj[m, b]
+            hess[a, b] = acc + ((1.0 if a == b else 0.0) - proj[a, b])
+    return phi_val
+
+
+@njit(cache=True)
+def _solve3(A, b):
+    """``A⁻¹ b`` for a 3x3 matrix by cofactors."""
+    c00 = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
+    c01 = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
+    c02 = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
+    det = A[0, 0] * c00 + A[0, 1] * c01 + A[0, 2] * c02
+    inv = np.empty((3, 3))
+    inv[0, 0] = c00
+    inv[1, 0] = c01
+    inv[2, 0] = c02
+    inv[0, 1] = A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]
+    inv[1, 1] = A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]
+    inv[2, 1] = A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]
+    inv[0, 2] = A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]
+    inv[1, 2] = A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]
+    inv[2, 2] = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+    return ((inv[0, 0] * b[0] + inv[0, 1] * b[1] + inv[0, 2] * b[2]) / det,
+            (inv[1, 0] * b[0] + inv[1, 1] * b[1] + inv[1, 2] * b[2]) / det,
+            (inv[2, 0] * b[0] + inv[2, 1] * b[1] + inv[2, 2] * b[2]) / det)
+
+
+@njit(cache=True)
+def spin_update(spin_prev, proj, inertia, dt, mu, nu, fn, normal, y, vs, vel, center, max_iter=200):
+    """New angular velocity (rad/s) of an obstacle free to spin on a frictionless axle.
+
+    Implicit (backward Euler) in the spin with the rods' state of the accepted step frozen:
+    ``I (ω − ω_n)/dt = P M(ω)``, ``M(ω) = Σ (y − c) × (−f(ω))`` the moment of friction on the
+    obstacle, ``ω`` in the range of ``proj (3, 3)`` (the axis ``â âᵀ`` of a capsule, ``I₃`` for a
+    ball joint). It is the stationarity condition of the strictly convex :func:`spin_objective`,
+    minimised by Newton's method with Armijo backtracking (converges from any start).
+
+    ``spin_prev (3,)`` ω_n (rad/s); ``inertia`` I (kg m²); ``dt`` (s); ``mu``, ``nu`` the friction law;
+    over the contact nodes: ``fn (c,)`` normal force (N), ``normal``, ``y`` (surface points, m), ``vs``
+    (their velocities, m/s) ``(c, 3)``; ``vel, center (3,)`` the obstacle's translation velocity (m/s)
+    and a point of its axis (m). Returns ``(ω (3,), Newton iterations)``.
+    """
+    grad = np.zeros(3)
+    hess = np.zeros((3, 3))
+    g2 = np.zeros(3)
+    h2 = np.zeros((3, 3))
+    spin = np.zeros(3)
+    for a in range(3):
+        spin[a] = proj[a, 0] * spin_prev[0] + proj[a, 1] * spin_prev[1] + proj[a, 2] * spin_prev[2]
+    rmax = 0.0
+    for i in range(fn.shape[0]):
+        rmax = max(rmax, v3.norm((y[i, 0] - center[0], y[i, 1] - center[1], y[i, 2] - center[2])))
+    # converged when the step moves the surface by less than 1e-12 ν (or by round-off of ω)
+    tol = 1e-12 * nu / max(rmax, 1e-300)
+    trial = np.zeros(3)
+    iterations = 0
+    for _ in range(max_iter):
+        iterations += 1
+        F = spin_objective(spin, spin_prev, proj, inertia, dt, mu, nu, fn, normal, y, vs, vel, center, grad, hess)
+        step = _solve3(hess, (-grad[0], -grad[1], -grad[2]))
+        size = v3.norm(step)
+        slope = v3.dot(step, (grad[0], grad[1], grad[2]))
+        alpha = 1.0
+        for _ in range(60):
+            for a in range(3):
+                trial[a] = spin[a] + alpha * step[a]
+            Ft = spin_objective(trial, spin_prev, proj, inertia, dt, mu, nu, fn, normal, y, vs, vel, center, g2, h2)
+            if Ft <= F + 1e-4 * alpha * slope:
+                break
+            alpha *= 0.5
+        for a in range(3):
+            spin[a] = trial[a]
+        if alpha * size <= tol + 4e-16 * v3.norm((spin[0], spin[1], spin[2])):
+            break
+    return spin, iterations
