@@ -244,3 +244,73 @@ def ref_friction(p, p_prev, dt, mu, nu, fc, beta_i, beta_j):
     out[2] = mu * g * that * fn[2]
     out[3] = mu * g * that * fn[3]
     return out.ravel()
+
+
+# ---------------------------------------------------------------------------------------------
+# friction at the rods' surfaces (slip, rolling and spin)
+
+
+def skew(a):
+    """The 3×3 matrix ``[a]×`` with ``[a]× b = a × b``."""
+    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+def ref_surface_normal(fc):
+    """``(n, F_n)``: unit normal ``S/|S|`` and ``F_n = |S|``, ``S = F_c,0 + F_c,1`` (the contact force
+    on edge a); ``(None, 0.0)`` if ``S = 0``."""
+    fc = np.asarray(fc, dtype=float)
+    S = fc[0:3] + fc[3:6]
+    fn = float(np.linalg.norm(S))
+    if fn == 0.0:
+        return None, 0.0
+    return S / fn, fn
+
+
+def ref_surface_velocity_map(p, ha, hb, beta_a, beta_b, n):
+    """The linear maps ``ż ↦`` translational and rotational parts of ``v_pa − v_pb``, as two 3×14
+    matrices ``(B_tr, B_rot)`` (``B = B_tr + B_rot``), for ``z = (x0, x1, x2, x3, θ_a, θ_b)``.
+
+    ``v_pa = (1 − β_a) v0 + β_a v1 + Ω_a × (−h_a n)``,
+    ``v_pb = (1 − β_b) v2 + β_b v3 + Ω_b × (h_b n)``, with the angular velocity of a cross-section
+    ``Ω = t × (ė/l) + θ̇ t`` (``t = e/l``, ``e`` the edge vector) written as a 3×14 matrix.
+    """
+    x0, x1, x2, x3 = nodes(p)
+    eye = np.eye(3)
+    B_tr = np.zeros((3, 14))
+    B_tr[:, 0:3] = (1.0 - beta_a) * eye
+    B_tr[:, 3:6] = beta_a * eye
+    B_tr[:, 6:9] = -(1.0 - beta_b) * eye
+    B_tr[:, 9:12] = -beta_b * eye
+    B_rot = np.zeros((3, 14))
+    # (first node column, angle column, start node, end node, arm from the axis, sign in v_pa − v_pb)
+    for c0, cth, xs, xe, arm, sign in ((0, 12, x0, x1, -ha * n, 1.0), (6, 13, x2, x3, hb * n, -1.0)):
+        e = xe - xs
+        l = np.linalg.norm(e)
+        t = e / l
+        omega = np.zeros((3, 14))  # Ω = [t]× (v_end − v_start)/l + θ̇ t
+        omega[:, c0:c0 + 3] = -skew(t) / l
+        omega[:, c0 + 3:c0 + 6] = skew(t) / l
+        omega[:, cth] = t
+        B_rot += sign * (-skew(arm) @ omega)  # Ω × arm = −arm × Ω
+    return B_tr, B_rot
+
+
+def ref_surface_friction(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, beta_a, beta_b):
+    """Generalised friction force ``Q = Bᵀ f`` (14,) on ``(x0, x1, x2, x3, θ_a, θ_b)``, written
+    plainly from the kinematics (``B`` of :func:`ref_surface_velocity_map` as an explicit matrix):
+    ``u = (I − n nᵀ) B ż``, ``f = −μ F_n tanh(K2|u|/2) u/|u|``, ``K2 = 15/ν``,
+    ``ż = (z − z_prev)/dt``. ``tanh`` rather than the literal ``2/(1 + e^{−K2 s}) − 1`` of :func:`ref_gamma`, which loses its
+    relative accuracy in deep stick (``K2 s`` ~ 1e-4)."""
+    n, fn = ref_surface_normal(fc)
+    if n is None:
+        return np.zeros(14)
+    zdot = np.concatenate([np.asarray(p, float) - np.asarray(p_prev, float),
+                           np.asarray(theta, float) - np.asarray(theta_prev, float)]) / dt
+    B_tr, B_rot = ref_surface_velocity_map(p, ha, hb, beta_a, beta_b, n)
+    B = B_tr + B_rot
+    u = (np.eye(3) - np.outer(n, n)) @ (B @ zdot)
+    s = np.linalg.norm(u)
+    if s == 0.0:
+        return np.zeros(14)
+    f = -mu * fn * np.tanh(0.5 * (15.0 / nu) * s) * u / s
+    return B.T @ f
