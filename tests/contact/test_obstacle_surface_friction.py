@@ -9,7 +9,7 @@
   interaction's blocks against central differences of its residual (blocks accumulated with
   ``np.add.at``, as the stepper does);
 * ``"centreline"``: the obstacle's residual and blocks equal the old kernel call's bit for bit;
-* dissipation: the power of friction on rods and obstacle, ``Q·ż − Σ f·w(y)``, is ``Σ f·u ≤ 0``;
+* dissipation: the power of friction on rods and obstacle, ``Q·ż − Σ f·w(y)``, equals ``Σ f·u ≤ 0``;
 * dynamics: a rod on a floor (μ = 0.3) kicked sideways rolls with ``"surface"`` (its edge angles
   advance by −Δy/h, speed 2/3 of the kick, tangential reaction below 2 % of μ F_n) and slides with
   ``"centreline"`` (reaction μ F_n, deceleration μ g);
@@ -293,6 +293,7 @@ def test_friction_dissipates(kind):
         r_mu, r_0 = np.zeros(model.n_dofs), np.zeros(model.n_dofs)
         obs.evaluate(q, q_prev, 0.01, r_mu, False)
         ff = obs._ff.copy()
+        vs = obs._vs.copy()
         x = q[obs._dofs]
         y = x - obs.node_h[:, None] * obs._normal
         w = obs._vel + np.cross(obs.surface_omega, y - obs._cen)
@@ -304,6 +305,8 @@ def test_friction_dissipates(kind):
         total = power_rods + power_obstacle
         scale = np.abs(ff).sum() * np.abs((q - q_prev) / 0.01).max()
         assert total <= 1e-12 * scale and total < -1e-3 * scale
+        # virtual power: Q·ż = Σ f·v_s, so the total is Σ f·u (f is tangential)
+        assert total == pytest.approx(np.einsum("ij,ij->", ff, vs - w), rel=1e-9)
 
 
 # ---------------------------------------------------------------- dynamics
