@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from knotsim.contact import diagnostics
 from knotsim.contact._model_kernels import gap_summary
 from knotsim.contact.assembly import (
     approach_forces,
@@ -447,32 +448,9 @@ class Contact:
         return pass_through(q_prev, q, pairs, pair_dofs_from_edges(pairs, m.edge_dofs), CROSSING_TOL * hmin)
 
     def check_start(self, q) -> None:
-        """Raise :class:`~knotsim.errors.GeometryError` when two rods (or two parts of one rod that
-        may touch) overlap at ``q`` deeper than ``penetration_limit`` times the smaller radius: the
-        first step would be rejected, and a penalty model cannot undo a start inside the other rope.
-        The message names the rods, edges and distance."""
-        from knotsim.errors import GeometryError
-        from knotsim.geometry.segments import segment_distances
-
-        m = self.model
-        pairs = self._broad_phase(q, 0.0)
-        if not pairs.shape[0]:
-            return
-        x = m.node_positions(q)
-        en = m.edge_nodes
-        d, _, _ = segment_distances(x[en[pairs[:, 0], 0]], x[en[pairs[:, 0], 1]], x[en[pairs[:, 1], 0]],
-                                    x[en[pairs[:, 1], 1]])
-        ra, rb = m.edge_radius[pairs[:, 0]], m.edge_radius[pairs[:, 1]]
-        depth = (ra + rb - d) / np.minimum(ra, rb)
-        k = int(np.argmax(depth))
-        if depth[k] > self.settings.penetration_limit:
-            a, b = (int(v) for v in pairs[k])
-            name = lambda e: f"rod {m.rod_names[m.edge_rod[e]]!r} edge {int(m.edge_local[e])}"  # noqa: E731
-            raise GeometryError(
-                f"the rods overlap at the start: {name(a)} and {name(b)} are {d[k]:.4g} m apart, "
-                f"{depth[k]:.2f} radii closer than contact ({ra[k] + rb[k]:.4g} m; limit "
-                f"{self.settings.penetration_limit} radii); move them apart, scale the geometry, or use a "
-                f"smaller radius")
+        """Raise :class:`~knotsim.errors.GeometryError` when rods overlap at ``q`` (see
+        :func:`knotsim.contact.diagnostics.check_start`)."""
+        diagnostics.check_start(self, q)
 
     def save_state(self) -> tuple[dict, dict]:
         """What decides the next steps besides the rods' state: the stiffness ``k_c`` and the forces
@@ -502,41 +480,8 @@ class Contact:
 
     def describe_near(self, q, node: int) -> str:
         """Text naming a candidate pair that has ``node`` (global node number) on one of its edges
-        (a nearly parallel pair in contact if there is one, else the closest pair): its edges, gap
-        ``Δ − d`` (m) and the angle between the edges (degrees); "" if none. Used in the message of a
-        failed step."""
-        m = self.model
-        k = self.pair_dofs.shape[0]
-        if not k:
-            return ""
-        dof = int(m.node_dof[node])
-        has = np.flatnonzero(np.any(self.pair_dofs == dof, axis=1))
-        if not has.size:
-            return ""
-        ev = self._evaluated_at(q)
-        gaps = ev.delta[has] - self.pair_d[has]
-
-        def angle_of(p: int) -> float:
-            x = q[self.pair_dofs[p]].reshape(4, 3)
-            e1, e2 = x[1] - x[0], x[3] - x[2]
-            c = abs(float(np.dot(e1, e2))) / max(float(np.linalg.norm(e1) * np.linalg.norm(e2)), 1e-300)
-            return math.degrees(math.acos(min(1.0, c)))
-
-        # a nearly parallel pair in contact is the likely culprit; otherwise the closest pair
-        touching = [int(p) for p, g in zip(has, gaps, strict=True) if g < self.settings.delta]
-        parallel = [p for p in touching if angle_of(p) < 1.0]
-        p = parallel[0] if parallel else int(has[np.argmin(gaps)])
-        angle = angle_of(p)
-        a, b = (int(v) for v in self.pairs[p])
-        text = (f"in contact with a gap of {ev.delta[p] - self.pair_d[p]:.3g} m between edges {a} and {b} "
-                f"({angle:.3g} deg apart)")
-        if angle < 1.0:
-            if self.settings.parallel_smoothing > 0.0:
-                text += "; nearly parallel edges in contact"
-            else:
-                text += ("; nearly parallel edges in contact: with contact.parallel_smoothing = 0 the edge-edge "
-                         "contact energy has a kink there (see docs/performance.md)")
-        return text
+        (see :func:`knotsim.contact.diagnostics.describe_near`); "" if none."""
+        return diagnostics.describe_near(self, q, node)
 
     def _compute_stats(self, ev: _Eval) -> tuple[int, float]:
         """The numbers of :meth:`stats` for the evaluation ``ev``; returns the pair of largest
@@ -552,7 +497,7 @@ class Contact:
         else:
             n_contacts, min_gap, pen, fc_tot, ff_tot = 0, math.nan, 0.0, 0.0, 0.0
         self._fmax_pending = fmax
-        self._ev_pending = (self.pair_dofs, ev.fc, ev.ff)
+        self._ev_pending = (self.pair_dofs, ev.fc, ev.ff, ev.surface)
         self._stats = {"n_contacts": n_contacts, "min_gap": min_gap, "max_penetration_ratio": pen,
                        "contact_force_total": fc_tot, "friction_force_total": ff_tot, "k_c": float(self.k_c)}
         return worst, ratio
@@ -575,11 +520,34 @@ class Contact:
         last = getattr(self, "_ev_accepted", None)
         if last is None:
             return np.full(m.n_nodes, np.nan), np.full(m.n_nodes, np.nan)
-        dofs, fc, ff = last
+        dofs, fc, ff, _ = last
         xyz = m.node_dof[:, None] + np.arange(3)
         contact, friction = (np.linalg.norm(np.bincount(dofs.ravel(), weights=f.ravel(), minlength=m.n_dofs)[xyz],
                                             axis=1) for f in (fc, ff))
         return contact, friction
+
+    def node_slip(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(slip, rolling)``: ``(n_nodes,)`` slip speed and rolling speed (m/s, see
+        :func:`~knotsim.contact.surface_friction.surface_friction_pair`) at every node at the last
+        accepted step, from the pair in contact with the largest normal force among those on the
+        node's edges; NaN at nodes without a contact, everywhere without surface friction, and
+        before the first accepted step. Where strands roll the slip is near zero and the rolling
+        speed is not; where they slide it is the other way round."""
+        m = self.model
+        slip = np.full(m.n_nodes, np.nan)
+        rolling = np.full(m.n_nodes, np.nan)
+        last = getattr(self, "_ev_accepted", None)
+        if last is None or not self.surface_friction:
+            return slip, rolling
+        dofs, fc, _, surface = last
+        force = np.linalg.norm(fc[:, 0:3] + fc[:, 3:6], axis=1)
+        live = np.flatnonzero(force > 0.0)
+        live = live[np.argsort(force[live], kind="stable")]  # the largest force is assigned last
+        nodes = np.searchsorted(m.node_dof, dofs[live][:, [0, 3, 6, 9]])
+        for c in range(4):  # the four nodes of the pairs (not a loop over pairs)
+            slip[nodes[:, c]] = surface[live, 0]
+            rolling[nodes[:, c]] = surface[live, 1]
+        return slip, rolling
 
 
 #: Former name of :class:`Contact`.

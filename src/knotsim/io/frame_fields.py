@@ -5,7 +5,12 @@
 - ``edge_tension`` ``(n_edges,)``, N: the axial force ``EA * strain`` of each edge;
 - ``contact_force``, ``friction_force`` ``(n_nodes,)``, N: magnitudes of the net contact and
   friction force on each node at the last accepted step, from every interaction that reports them
-  (:meth:`knotsim.contact.model.Contact.node_forces`); only written when the run has contact.
+  (:meth:`knotsim.contact.model.Contact.node_forces`); only written when the run has contact;
+- ``slip_speed``, ``rolling_speed`` ``(n_nodes,)``, m/s: at every node in contact, the slip speed
+  of the surfaces and the part of their velocity difference that comes from the cross-sections'
+  rotation (:meth:`knotsim.contact.model.Contact.node_slip`), NaN elsewhere; written when the run has
+  rod-rod contact with surface friction. Where strands roll the slip is near zero and the rolling
+  speed is not; where they slide it is the other way round.
 """
 
 from __future__ import annotations
@@ -28,11 +33,18 @@ def _force_sources(interactions: Sequence) -> list:
     return [inter for inter in interactions if callable(getattr(inter, "node_forces", None))]
 
 
+def _slip_sources(interactions: Sequence) -> list:
+    return [inter for inter in interactions if getattr(inter, "surface_friction", False)
+            and callable(getattr(inter, "node_slip", None))]
+
+
 def frame_field_names(interactions: Sequence) -> list[str]:
     """The derived datasets a run with these interactions writes."""
     names = ["edge_strain", "edge_tension"]
     if _force_sources(interactions):
         names += ["contact_force", "friction_force"]
+    if _slip_sources(interactions):
+        names += ["slip_speed", "rolling_speed"]
     return names
 
 
@@ -46,4 +58,8 @@ def frame_fields(model, q: np.ndarray, interactions: Sequence) -> dict[str, np.n
         pairs = [inter.node_forces() for inter in sources]
         out["contact_force"] = np.sum([c for c, _ in pairs], axis=0)
         out["friction_force"] = np.sum([f for _, f in pairs], axis=0)
+    slips = _slip_sources(interactions)
+    if slips:
+        slip, rolling = slips[0].node_slip()  # one rod-rod contact model per run
+        out["slip_speed"], out["rolling_speed"] = slip, rolling
     return out

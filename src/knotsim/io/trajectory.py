@@ -57,6 +57,10 @@ DATASETS: dict[str, tuple[str, str]] = {
     "contact_force": ("N", "magnitude of the net contact (normal) force on each node at the step that "
                       "ended at this frame; NaN in a frame written before the run's first step"),
     "friction_force": ("N", "magnitude of the net friction force on each node, as contact_force"),
+    "slip_speed": ("m/s", "slip speed of the surfaces at each node in contact (the pair of largest normal force "
+                   "on its edges), surface friction only; NaN where there is no contact"),
+    "rolling_speed": ("m/s", "part of the surfaces' velocity difference from the cross-sections' rotation at each "
+                      "node in contact, as slip_speed; large where strands roll"),
     "rod_node_start": ("1", "global node number where each rod starts (last entry: total)"),
     "rod_edge_start": ("1", "global edge number where each rod starts (last entry: total)"),
     "rod_closed": ("1", "whether each rod is closed (a ring)"),
@@ -64,7 +68,7 @@ DATASETS: dict[str, tuple[str, str]] = {
 }
 #: Optional derived per-frame datasets and what they are given per: ``"edge"`` or ``"node"``.
 FRAME_FIELDS: dict[str, str] = {"edge_strain": "edge", "edge_tension": "edge", "contact_force": "node",
-                                "friction_force": "node"}
+                                "friction_force": "node", "slip_speed": "node", "rolling_speed": "node"}
 
 
 def _label(ds: h5py.Dataset, name: str) -> h5py.Dataset:

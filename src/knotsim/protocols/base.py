@@ -37,6 +37,7 @@ import numpy as np
 import pandas as pd
 
 from knotsim._util.jsonio import json_safe, write_json
+from knotsim.contact.options import ContactOptions
 from knotsim.errors import ConfigError, SimulationError
 from knotsim.protocols.params import COMMON_DEFAULTS, Params, resolve_params
 
@@ -298,6 +299,8 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
         raise ConfigError("duration", f"must be a positive time in s, got {duration!r}")
     p.values["duration"] = float(duration)
     contact = {"mu": p["mu"], **p.contact}
+    # the friction law that runs is written down (run.toml, run.json, summary.json)
+    contact.setdefault("friction_model", str(ContactOptions().friction_model))
     if geo.contact_stiffness is not None and "initial_stiffness" not in contact:
         # continuing a run: its pressed contacts keep their forces (from the floor stiffness they
         # would give way at once; a tied reef pulled at mu = 0.3 failed in its first step)
@@ -346,7 +349,8 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
 
     Returns
     -------
-    dict with ``protocol``, ``knot``, ``parameters``, ``metrics``, ``outcome``, ``run_status``,
+    dict with ``protocol``, ``knot``, ``parameters``, ``friction_model`` (``"surface"`` or
+    ``"centreline"``, the law that ran), ``metrics``, ``outcome``, ``run_status``,
     ``topology`` (start/end), ``contact`` (statistics incl. ``worst_penetration_ratio``), ``wall_time``
     (s), ``sim_time`` (s), ``n_steps``, ``failed_attempts``, ``notes``.
     """
@@ -403,6 +407,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
         "knot_kind": geo.kind,
         "geometry": geo.source,
         "parameters": p.as_dict(),
+        "friction_model": str(spec.data["contact"]["friction_model"]),
         "EI": ctx.EI,
         "metrics": metrics,
         "outcome": outcome,

@@ -17,6 +17,7 @@ from knotsim.validation.contact import contact_cases
 from knotsim.validation.helix import helix_equilibrium, helix_reference
 from knotsim.validation.knots import overhand_tightening
 from knotsim.validation.obstacles import capstan, euler_pinned, floor_friction, michell
+from knotsim.validation.rolling import rolling_cases
 from knotsim.validation.single_rod import single_rod_bend
 
 
@@ -74,7 +75,7 @@ def helix(quick: bool = False) -> list[dict]:
 
 #: Registered cases: name -> function(quick) -> rows.
 CASES: dict[str, Callable[[bool], list[dict]]] = {"cantilever": cantilever, "helix": helix,
-                                                  "contact": contact_cases,
+                                                  "contact": contact_cases, "rolling": rolling_cases,
                                                   "overhand_tightening": overhand_tightening,
                                                   "single_rod_bend": single_rod_bend,
                                                   "bends": bends, "capstan": capstan,

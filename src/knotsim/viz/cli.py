@@ -1,6 +1,6 @@
 """Command ``knotsim view`` (registered on the main group by :mod:`knotsim.cli`)::
 
-    knotsim view RUN_DIR --html FILE [--max-frames N]   # self-contained HTML page (the view extra)
+    knotsim view RUN_DIR --html FILE [--max-frames N] [--color-by FIELD]   # HTML page (the view extra)
     knotsim view RUN_DIR                                # interactive window (the render extra, a display)
 
 Exit codes as for the other commands: 0 success, 2 bad input, a missing extra or no display (one
@@ -24,15 +24,21 @@ from knotsim._cli_errors import exit_codes as _exit_codes
                    "curve beside them; opens without network access) instead of opening a window.")
 @click.option("--max-frames", type=click.IntRange(min=2), default=100, show_default=True,
               help="Show at most this many frames, evenly spaced over the run.")
+@click.option("--color-by", "color_by", type=click.Choice(["rod", "slip_speed", "rolling_speed", "contact_force",
+                                                          "friction_force"]), default="rod", show_default=True,
+              help="With --html: colour the rods by a node field of the trajectory: where contacts slide "
+                   "(slip_speed) and roll (rolling_speed), m/s, with surface friction; contact_force and "
+                   "friction_force, N. 'rod': one colour per rod.")
 @_exit_codes
-def view(run_dir: Path, html: Path | None, max_frames: int):
+def view(run_dir: Path, html: Path | None, max_frames: int, color_by: str):
     """View the run in RUN_DIR: an interactive 3D window, or with --html FILE a web page."""
     from knotsim.viz import view as _view
 
     _view.run_directory(run_dir)
     try:
         if html is not None:
-            click.echo(str(_view.write_html(run_dir, html, max_frames=max_frames)))
+            click.echo(str(_view.write_html(run_dir, html, max_frames=max_frames,
+                                            color_by=None if color_by == "rod" else color_by)))
             return
         if not _view.has_display():
             error(f"no display to open a window on; write a page instead: knotsim view {run_dir} --html FILE",

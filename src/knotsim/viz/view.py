@@ -1,7 +1,7 @@
 """Interactive views of a run: a self-contained HTML page (plotly) or a 3D window (pyvista).
 
-:func:`write_html` writes one HTML file with the rods drawn as thick lines (one colour per rod)
-animated over time, a time slider and a play button, and beside them the force curve of the run
+:func:`write_html` writes one HTML file with the rods drawn as thick lines (one colour per rod, or
+coloured by a node field such as the slip or rolling speed of the contacts) animated over time, a time slider and a play button, and beside them the force curve of the run
 with a marker at the shown frame. The plotly.js library is embedded in the page, so the page opens
 without network access (about 5 MB). It needs the ``view`` extra (``pip install 'knotsim[view]'``).
 
@@ -23,7 +23,7 @@ import numpy as np
 
 from knotsim.errors import ConfigError
 
-__all__ = ["force_curves", "has_display", "run_directory", "select_frames", "show_window", "write_html"]
+__all__ = ["COLOR_FIELDS", "force_curves", "has_display", "run_directory", "select_frames", "show_window", "write_html"]
 
 #: Colour of each rod (cycled), as CSS hex strings.
 ROD_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf")
@@ -95,8 +95,35 @@ def _import_plotly():
     return go, make_subplots
 
 
+#: Node fields of ``trajectory.h5`` a page can colour the rods by (``write_html(color_by=...)``).
+COLOR_FIELDS = ("slip_speed", "rolling_speed", "contact_force", "friction_force")
+
+
+def _node_colors(traj, frames: np.ndarray, color_by: str) -> tuple[dict[int, list[np.ndarray]], float, str]:
+    """Per-rod node values of ``color_by`` at the selected frames (NaN, no contact, shown as 0), the
+    top of the colour scale (the largest value shown) and its unit."""
+    if color_by not in COLOR_FIELDS:
+        raise ConfigError("color_by", f"must be one of {list(COLOR_FIELDS)}, got {color_by!r}")
+    if color_by not in traj.fields:
+        hint = (" (written by runs with rod-rod contact and contact.friction_model = 'surface')"
+                if color_by in ("slip_speed", "rolling_speed") else " (written by runs with contact)")
+        raise ConfigError("color_by", f"the trajectory has no {color_by!r}{hint}")
+    starts = traj.rod_node_start
+    values = {}
+    top = 0.0
+    for i in frames:
+        v = np.nan_to_num(np.asarray(traj.fields[color_by][int(i)], dtype=float), nan=0.0)
+        per_rod = []
+        for r in range(traj.n_rods):  # a loop over rods, once per shown frame
+            w = v[starts[r]:starts[r + 1]]
+            per_rod.append(np.append(w, w[:1]) if traj.rod_closed[r] else w)
+        values[int(i)] = per_rod
+        top = max(top, float(np.max(v)) if v.size else 0.0)
+    return values, top if top > 0.0 else 1.0, traj.units.get(color_by, "")
+
+
 def write_html(run_dir: str | os.PathLike, out: str | os.PathLike, *, max_frames: int = 100,
-               line_width: float = 8.0) -> Path:
+               line_width: float = 8.0, color_by: str | None = None) -> Path:
     """Write the self-contained HTML page of ``run_dir`` (see the module docstring) to ``out``.
 
     Parameters
@@ -110,6 +137,11 @@ def write_html(run_dir: str | os.PathLike, out: str | os.PathLike, *, max_frames
         included): the page grows by about ``24 * n_nodes`` bytes per frame.
     line_width:
         Width of the rods' lines, in screen pixels.
+    color_by:
+        ``None`` (one colour per rod) or a node field of the trajectory (:data:`COLOR_FIELDS`):
+        ``"slip_speed"`` and ``"rolling_speed"`` (m/s; where strands slide and where they roll, runs
+        with surface friction), ``"contact_force"``, ``"friction_force"`` (N). Nodes without contact
+        show 0; the scale runs from 0 to the largest value shown.
 
     Returns
     -------
@@ -129,16 +161,23 @@ def write_html(run_dir: str | os.PathLike, out: str | os.PathLike, *, max_frames
         lines = {int(i): _frame_lines(traj, int(i)) for i in frames}
         times = np.asarray(traj.time[frames], dtype=float)
         names = list(traj.rod_names)
+        colors = _node_colors(traj, frames, color_by) if color_by is not None else None
 
     has_force = bool(curves)
     fig = make_subplots(rows=1, cols=2 if has_force else 1, column_widths=[0.58, 0.42] if has_force else None,
                         specs=[[{"type": "scene"}, {"type": "xy"}] if has_force else [{"type": "scene"}]],
                         horizontal_spacing=0.08)
 
+    def line_style(i: int, r: int) -> dict:
+        if colors is None:
+            return {"width": line_width, "color": ROD_COLORS[r % len(ROD_COLORS)]}
+        values, top, unit = colors
+        return {"width": line_width, "color": values[i][r], "colorscale": "Viridis", "cmin": 0.0, "cmax": top,
+                "showscale": r == 0, "colorbar": {"title": f"{color_by} ({unit})", "x": -0.05}}
+
     def rod_traces(i: int) -> list:
         return [go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="lines", name=names[r],
-                             line={"width": line_width, "color": ROD_COLORS[r % len(ROD_COLORS)]},
-                             hoverinfo="name")
+                             line=line_style(i, r), hoverinfo="name")
                 for r, p in enumerate(lines[i])]
 
     first = int(frames[0])

@@ -274,6 +274,10 @@ def load_config(source, *, base_dir=None, duration: float | None = None) -> RunC
     contact = raw.get("contact")
     if contact is not None:
         as_table(contact, "contact")
+        from knotsim.contact.options import ContactOptions
+
+        # the friction law that runs is written down (run.toml, run.json), whatever the default is
+        contact.setdefault("friction_model", str(ContactOptions.from_table(contact).friction_model))
 
     obstacles = None
     if "obstacles" in raw:
