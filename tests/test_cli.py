@@ -297,7 +297,7 @@ def test_validate_quick_real_cases_all_pass(runner):
     failed = [(c["case"], c["quantity"]) for c in data["cases"] if not c["passed"]]
     assert data["passed"] and not failed, failed
     assert {c["case"] for c in data["cases"]} >= {"cantilever", "helix", "contact", "overhand_tightening",
-                                                   "single_rod_bend", "bends"}
+                                                   "single_rod_bend", "bends", "rolling"}
 
 
 def test_kernels_cached_reads_numba_cache_index(tmp_path):

@@ -5,7 +5,7 @@ stored in numba's cache (``__pycache__`` next to the source, or ``NUMBA_CACHE_DI
 processes load it in milliseconds. A cold start of ``knotsim pull overhand_n1 --quick`` spends
 most of its time compiling, about 45 s of CPU (one specialisation per kernel;
 ``python benchmarks/bench_cold_start.py --split`` lists them): the broad phase and the contact
-loop (``contact_evaluate_regularized``: pair energy and friction) about 6 s each, the sparse LU
+loop (``contact_evaluate_regularized_surface``: pair energy and surface friction) about 6 s each, the sparse LU
 about 8 s, the elastic energies about 7 s, the rest in many small kernels.
 
 :func:`kernels_cached` tells, from numba's cache index files of a few kernels that every run of
@@ -29,7 +29,7 @@ __all__ = ["kernels_cached", "spare_cores", "uncached_kernels", "warm_up"]
 #: Kernels every run of a kind compiles (module, function): if all are cached, the rest are too.
 SENTINELS: dict[str, tuple[tuple[str, str], ...]] = {
     "core": (("knotsim.energies.bending", "bending_twisting_energy"), ("knotsim.solver._kernels", "implicit_residual")),
-    "contact": (("knotsim.contact.assembly", "contact_evaluate_regularized"),
+    "contact": (("knotsim.contact.assembly", "contact_evaluate_regularized_surface"),
                 ("knotsim.contact.broadphase", "find_candidate_pairs")),
     "topology": (("knotsim.geometry.planar", "_crossings_kernel"),),
 }

@@ -59,7 +59,7 @@ def test_friction_independent_of_dt():
     assert res[0] == pytest.approx(res[1], rel=0.02)
 
 
-def drop_case(tilt_deg=0.0, mu=0.0, T=0.3, damping=0.02):
+def drop_case(tilt_deg=0.0, mu=0.0, T=0.3, damping=0.02, friction_model="surface"):
     th = np.deg2rad(tilt_deg)
     d = np.array([np.cos(th), 0.0, -np.sin(th)])
     a = line(-0.02 * d, 0.02 * d, 11)
@@ -68,9 +68,17 @@ def drop_case(tilt_deg=0.0, mu=0.0, T=0.3, damping=0.02):
     m = Model([rod(a, name="A"), rod(b, name="B")], gravity=(0.0, 0.0, -9.81), damping=damping)
     bcs = BoundaryConditions(m)
     bcs.clamp("A", rod="A", nodes=list(range(11)))  # all nodes: a fixed obstacle
-    ci = ContactInteraction(m, ContactSettings(mu=mu))
+    ci = ContactInteraction(m, ContactSettings(mu=mu, friction_model=friction_model))
     sim = Simulation(m, bcs, SolverSettings(dt=1e-3), interactions=[ci])
-    log = sim.run(T, progress=False)
+    landing = []
+
+    def first_contact(s, _res):
+        if not landing and s.rows[-1]["n_contacts"] >= 1:
+            landing.append(m.rod_positions(s.state.q, "B").mean(axis=0))
+
+    log = sim.run(T, progress=False, callback=first_contact)
+    log.attrs["landing"] = landing[0] if landing else None
+    log.attrs["theta_B"] = m.edge_angles(sim.state.q)[m.rod_edge_start[1]:]
     xb = m.rod_positions(sim.state.q, "B")
     vb = sim.state.v[m.node_dof[m.rod_node_start[1]:][:, None] + np.arange(3)]
     return log, xb, vb, d
@@ -95,7 +103,22 @@ def test_frictionless_rod_slides_off_tilted_rod_and_friction_holds_it():
     assert log["n_contacts"].iloc[-1] == 0
     assert log["n_contacts"].max() >= 1  # it did land on A first
     assert log["max_penetration_ratio"].max() <= 0.01
-    # mu = 0.5 > tan(20 deg): B stays where it landed
-    log, xb, vb, d = drop_case(tilt_deg=20.0, mu=0.5, T=0.25)
+    # centre-line friction, mu = 0.5 > tan(20 deg): B stays where it landed
+    log, xb, vb, d = drop_case(tilt_deg=20.0, mu=0.5, T=0.25, friction_model="centreline")
     assert abs(xb.mean(axis=0) @ d) < 2e-3
     assert log["n_contacts"].iloc[-1] >= 1
+
+
+def test_rod_dropped_across_a_tilted_rod_rolls_down_it_with_surface_friction():
+    """Friction at the surfaces (docs/physics.md §3.3): tan(20 deg) = 0.36 < 3 mu = 1.5, so B rolls
+    down A without slipping: it turns by its travel over h, the travel of a rolling cylinder (B
+    lands at about 25 ms and is still on A, 2 cm long each side, at 0.12 s)."""
+    log, xb, _, d = drop_case(tilt_deg=20.0, mu=0.5, T=0.12)
+    assert log["n_contacts"].iloc[-1] >= 1
+    travel = float((xb.mean(axis=0) - log.attrs["landing"]) @ d)
+    assert travel > 5e-3  # it moved down A (it stays within 2 mm with centre-line friction)
+    turn = log.attrs["theta_B"]
+    # every edge turns the same way; 3 %: the landing is taken at the first step within the contact
+    # layer delta = 0.5 mm above A, which shifts the start of the 13 mm travel by about 0.2 mm
+    np.testing.assert_allclose(np.abs(turn), travel / H, rtol=0.03)
+    assert log["max_penetration_ratio"].max() <= 0.01

@@ -20,7 +20,9 @@ the cases that were running.
 Columns of ``results.parquet``: ``case_id``, ``kind``, every swept parameter by its dotted key
 (lists as JSON text), ``repeat`` (only with repeats), ``outcome`` (``"completed"`` or
 ``"failed"``), ``error``, ``wall_time`` (s, the whole case), every metric of the case's record (a
-metric whose name clashes with one of these columns is prefixed ``metric.``), ``traceback`` and
+metric whose name clashes with one of these columns is prefixed ``metric.``; a protocol case's
+``friction_model``, ``"surface"`` or ``"centreline"``, is one of them, and a record written before
+knotsim had surface friction reads as ``"centreline"``, the law it ran), ``traceback`` and
 ``case_dir`` (relative to ``STUDY_DIR``).
 """
 
@@ -134,6 +136,8 @@ def run_case_atomically(case: dict, study_dir: str | os.PathLike, base_dir: str 
 
 
 _RECORD_KEYS = ("case_id", "outcome", "metrics")
+#: The friction law of protocol records that do not name one (written before surface friction).
+LEGACY_FRICTION_MODEL = "centreline"
 
 
 def _read_summary(case_dir: Path) -> dict | None:
@@ -469,6 +473,9 @@ def results_frame(cases: list, records: dict[str, dict]):
         for k, v in (rec.get("metrics") or {}).items():
             name = k if k not in row and k not in _RESERVED else f"metric.{k}"
             row[name] = math.nan if v is None else _cell(v)
+        if c["kind"] == "protocol" and rec.get("outcome") == "completed" and "friction_model" not in row:
+            # a record from before knotsim had surface friction: the centre-line law ran
+            row["friction_model"] = LEGACY_FRICTION_MODEL
         row["traceback"] = rec.get("traceback")
         row["case_dir"] = f"{CASES}/{c['case_id']}" if rec.get("host") is not None else None
         rows.append(row)

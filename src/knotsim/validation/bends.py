@@ -75,7 +75,8 @@ def bends(quick: bool = False) -> list[dict]:
         ov = {"n_nodes": 101, "dt": 5e-3, "pull_speed": 0.02, "duration": 4.0}
     else:
         ov = {"n_nodes": 151, "dt": 2e-3, "pull_speed": 0.01, "duration": 10.0}
-    ov.update({"mode": "displacement", "mu": 0.3, "output_interval": 1.0})
+    ov.update({"mode": "displacement", "mu": 0.3, "output_interval": 1.0,
+               "contact.friction_model": "centreline"})  # the published orderings were found with it
     case = "bends"
     res = {}
     rows = []
