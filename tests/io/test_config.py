@@ -244,18 +244,25 @@ def test_contact_table_builds_the_contact_interaction():
     c = base()
     c["contact"] = {"delta": 1e-4, "mu": 0.3}
     cfg = load_config(c)
-    assert cfg.contact == {"delta": 1e-4, "mu": 0.3}
+    # the friction law that runs is written down, whatever the default (run.toml, run.json)
+    assert cfg.contact == {"delta": 1e-4, "mu": 0.3, "friction_model": "surface"}
+    assert cfg.raw["contact"]["friction_model"] == "surface"
     (inter,) = cfgmod.contact_interactions(cfg.model, cfg.contact)
     assert isinstance(inter, ContactInteraction)
     assert inter.settings.delta == 1e-4 and inter.settings.mu == 0.3
+    assert inter.settings.friction_model == "surface"
+    c["contact"] = {"mu": 0.3, "friction_model": "centreline"}
+    assert load_config(c).contact["friction_model"] == "centreline"
 
 
 def test_contact_table_unknown_key_is_named():
     c = base()
     c["contact"] = {"delta": 1e-4, "stiffnes": 1.0}
-    cfg = load_config(c)
-    with pytest.raises(ConfigError, match=r"contact\.stiffnes"):
-        cfgmod.contact_interactions(cfg.model, cfg.contact)
+    with pytest.raises(ConfigError, match=r"contact\.stiffnes"):  # found when the file is read
+        load_config(c)
+    c["contact"] = {"friction_model": "rolling"}
+    with pytest.raises(ConfigError, match=r"contact\.friction_model.*'rolling'"):
+        load_config(c)
 
 
 # ------------------------------------------------------------------------------------------ bad input

@@ -178,10 +178,12 @@ def test_every_dataset_has_units_and_derived_fields_round_trip(tmp_path):
     extra = [{"velocities": rng.normal(size=(9, 3)), "reference_directors": rng.normal(size=(8, 3)),
               "reference_twist": rng.normal(size=3), "edge_strain": rng.normal(size=8),
               "edge_tension": rng.normal(size=8), "contact_force": rng.random(9),
-              "friction_force": rng.random(9)} for _ in range(3)]
+              "friction_force": rng.random(9), "slip_speed": rng.random(9), "rolling_speed": rng.random(9)}
+             for _ in range(3)]
     # 3 bending stencils: the open rope has 3 interior nodes (the ring's 4 are left out here)
     with TrajectoryWriter(path, **LAYOUT, n_bend=3, rest_edge_length=np.full(8, 0.1),
-                          fields=["edge_strain", "edge_tension", "contact_force", "friction_force"]) as w:
+                          fields=["edge_strain", "edge_tension", "contact_force", "friction_force", "slip_speed",
+                                  "rolling_speed"]) as w:
         for k in range(3):
             w.append(times[k], pos[k], ang[k], extra[k])
     with h5py.File(path, "r") as f:

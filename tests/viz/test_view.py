@@ -59,6 +59,40 @@ def test_html_page_is_self_contained(run_dir, tmp_path):
     assert "B0 reaction |F|" in text
 
 
+def test_html_page_coloured_by_the_contacts_slip_and_rolling(run_dir, tmp_path):
+    """crossing_rods (surface friction, the default): the pressed rods' contact nodes carry slip
+    and rolling speeds, the page colours the lines by them with a scale from 0 to the largest."""
+    pytest.importorskip("plotly")
+    from knotsim.io.trajectory import read_trajectory
+
+    with read_trajectory(run_dir / "trajectory.h5") as tr:
+        slip = np.asarray(tr.fields["slip_speed"])
+        assert tr.units["rolling_speed"] == "m/s"
+    live = np.isfinite(slip[-1])
+    assert 0 < live.sum() < slip.shape[1]  # the contact nodes only, NaN elsewhere
+    page = view.write_html(run_dir, tmp_path / "slip.html", max_frames=4, color_by="slip_speed")
+    text = page.read_text()
+    assert '"colorscale":[[0.0,' in text and "slip_speed (m\\u002fs)" in text  # plotly escapes the slash
+    top = max(float(np.nanmax(slip[i])) for i in view.select_frames(slip.shape[0], 4) if np.any(np.isfinite(slip[i])))
+    cmax = re.search(r'"cmax":([0-9.eE+-]+)', text)
+    assert cmax is not None and float(cmax.group(1)) == pytest.approx(top, rel=1e-12)
+    res = CliRunner().invoke(main, ["view", str(run_dir), "--html", str(tmp_path / "r.html"), "--color-by",
+                                    "rolling_speed"])
+    assert res.exit_code == 0, res.output
+    with pytest.raises(ConfigError, match="color_by"):
+        view.write_html(run_dir, tmp_path / "x.html", color_by="bending_strain")
+
+
+def test_html_colour_by_slip_needs_surface_friction(tmp_path):
+    pytest.importorskip("plotly")
+    out = tmp_path / "run"
+    spec = RunSpec.load(EXAMPLES / "crossing_rods.toml")
+    run(spec.with_changes(run={"duration": 0.02, "output_interval": 0.01},
+                          contact={**spec.data["contact"], "friction_model": "centreline"}), out, progress=False)
+    with pytest.raises(ConfigError, match="no 'slip_speed'.*surface"):
+        view.write_html(out, tmp_path / "x.html", color_by="slip_speed")
+
+
 def test_cli_html_and_refusals(run_dir, tmp_path, monkeypatch):
     pytest.importorskip("plotly")
     runner = CliRunner()

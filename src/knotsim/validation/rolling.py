@@ -70,7 +70,9 @@ def log_roll(*, twist_clamped: bool, mu: float = 0.3, friction_model: str = "sur
     the travel), ``normal_force`` (N, mean ``|F_z|`` there), ``turn`` (rad, change of the angle of
     B's middle edge during the travel), ``carried`` (m, distance B's middle node moved along x),
     ``twist_moment`` (N m, the sum of the twisting moments of B's clamps at the end, along y),
-    ``friction_moment`` (``μ F_n h``, N m), ``GJ`` (N m²), ``free_length`` (m) and the ``log``.
+    ``friction_moment`` (``μ F_n h``, N m), ``GJ`` (N m²), ``free_length`` (m), ``node_slip``
+    (the contact's per-node ``(slip, rolling)`` speeds at the end, m/s,
+    :meth:`~knotsim.contact.model.Contact.node_slip`) and the ``log``.
     """
     L = LOG_ROLL_LENGTH
     n = LOG_ROLL_NODES
@@ -120,6 +122,7 @@ def log_roll(*, twist_clamped: bool, mu: float = 0.3, friction_model: str = "sur
         "friction_moment": float(mu * np.mean(fz) * H),
         "GJ": float(rod_b.GJ),
         "free_length": free_length,
+        "node_slip": contact.node_slip(),
         "log": log,
     }
 
