@@ -40,51 +40,11 @@ from knotsim import _vec3 as v3
 from knotsim.contact.friction import FRICTION_SHARPNESS, slip_functions
 from knotsim.contact.obstacle_kernels import node_distance
 from knotsim.contact.potential import imc_energy_derivatives
+from knotsim.contact.surface_friction import lever_force, lever_force_dot, lever_velocity, lever_velocity_dot
 
 #: Unknowns of a node's surface-friction stencil: x_{i−1}, θ_A, x_i, θ_B, x_{i+1}.
 STENCIL = 11
 _ZERO = (0.0, 0.0, 0.0)
-
-
-@njit(cache=True)
-def _lever(c, t, ed, n):
-    """``−c [(t·n) ė − (n·ė) t]`` (m/s): the surface point's velocity from the tangent's turning,
-    ``c (t × ė) × (−n)`` with ``c = h w / l``."""
-    tn = v3.dot(t, n)
-    ne = v3.dot(n, ed)
-    return (-c * (tn * ed[0] - ne * t[0]), -c * (tn * ed[1] - ne * t[1]), -c * (tn * ed[2] - ne * t[2]))
-
-
-@njit(cache=True)
-def _lever_dot(c, cd, t, td, ed, edd, n, nd):
-    """Directional derivative of :func:`_lever` given those of its arguments (``cd, td, edd, nd``)."""
-    tn = v3.dot(t, n)
-    ne = v3.dot(n, ed)
-    tnd = v3.dot(td, n) + v3.dot(t, nd)
-    ned = v3.dot(nd, ed) + v3.dot(n, edd)
-    return (-cd * (tn * ed[0] - ne * t[0]) - c * (tnd * ed[0] + tn * edd[0] - ned * t[0] - ne * td[0]),
-            -cd * (tn * ed[1] - ne * t[1]) - c * (tnd * ed[1] + tn * edd[1] - ned * t[1] - ne * td[1]),
-            -cd * (tn * ed[2] - ne * t[2]) - c * (tnd * ed[2] + tn * edd[2] - ned * t[2] - ne * td[2]))
-
-
-@njit(cache=True)
-def _lever_force(c, t, f, n):
-    """``g = −c [(n·t) f − (f·t) n]`` (N): the edge's lever-arm force on its second node."""
-    nt = v3.dot(n, t)
-    ft = v3.dot(f, t)
-    return (-c * (nt * f[0] - ft * n[0]), -c * (nt * f[1] - ft * n[1]), -c * (nt * f[2] - ft * n[2]))
-
-
-@njit(cache=True)
-def _lever_force_dot(c, cd, t, td, f, fd, n, nd):
-    """Directional derivative of :func:`_lever_force`."""
-    nt = v3.dot(n, t)
-    ft = v3.dot(f, t)
-    ntd = v3.dot(nd, t) + v3.dot(n, td)
-    ftd = v3.dot(fd, t) + v3.dot(f, td)
-    return (-cd * (nt * f[0] - ft * n[0]) - c * (ntd * f[0] + nt * fd[0] - ftd * n[0] - ft * nd[0]),
-            -cd * (nt * f[1] - ft * n[1]) - c * (ntd * f[1] + nt * fd[1] - ftd * n[1] - ft * nd[1]),
-            -cd * (nt * f[2] - ft * n[2]) - c * (ntd * f[2] + nt * fd[2] - ftd * n[2] - ft * nd[2]))
 
 
 @njit(cache=True)
@@ -151,8 +111,8 @@ def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel
     tB, lB, edB, omB, cB = _edge(z, zp, 4, 8, 7, wB, h, idt)
     tAn = v3.cross(tA, n)
     tBn = v3.cross(tB, n)
-    rot = v3.add(v3.axpy(-h * wA * omA, tAn, _lever(cA, tA, edA, n)),
-                 v3.axpy(-h * wB * omB, tBn, _lever(cB, tB, edB, n)))
+    rot = v3.add(v3.axpy(-h * wA * omA, tAn, lever_velocity(cA, tA, edA, n)),
+                 v3.axpy(-h * wB * omB, tBn, lever_velocity(cB, tB, edB, n)))
     vs = v3.add(vi, rot)
     om = (omega[0], omega[1], omega[2])
     y = v3.axpy(-h, n, (z[4], z[5], z[6]))
@@ -163,8 +123,8 @@ def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel
     s = v3.norm(u)
     _, phi, psi = slip_functions(s, nu)
     f = v3.scale(-mu * fn * phi, u)
-    gA = _lever_force(cA, tA, f, n)
-    gB = _lever_force(cB, tB, f, n)
+    gA = lever_force(cA, tA, f, n)
+    gB = lever_force(cB, tB, f, n)
     mid = v3.sub(v3.add(f, gA), gB)
     for k in range(3):
         force[k] -= gA[k]
@@ -206,9 +166,9 @@ def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel
         dtAn = v3.add(v3.cross(dtA, n), v3.cross(tA, dn))
         dtBn = v3.add(v3.cross(dtB, n), v3.cross(tB, dn))
         drot = v3.add(
-            v3.sub(_lever_dot(cA, dcA, tA, dtA, edA, v3.scale(idt, deA), n, dn),
+            v3.sub(lever_velocity_dot(cA, dcA, tA, dtA, edA, v3.scale(idt, deA), n, dn),
                    v3.scale(h * wA, v3.add(v3.scale(domA, tAn), v3.scale(omA, dtAn)))),
-            v3.sub(_lever_dot(cB, dcB, tB, dtB, edB, v3.scale(idt, deB), n, dn),
+            v3.sub(lever_velocity_dot(cB, dcB, tB, dtB, edB, v3.scale(idt, deB), n, dn),
                    v3.scale(h * wB, v3.add(v3.scale(domB, tBn), v3.scale(omB, dtBn)))))
         dy = v3.axpy(-h, dn, dx)
         dwv = v3.sub(v3.axpy(idt, dx, drot), v3.cross(om, dy))
@@ -217,8 +177,8 @@ def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel
         udu = v3.dot(u, du)
         df = v3.scale(-mu, v3.add(v3.scale(dfn * phi, u),
                                   v3.scale(fn, v3.add(v3.scale(phi, du), v3.scale(psi * udu, u)))))
-        dgA = _lever_force_dot(cA, dcA, tA, dtA, f, df, n, dn)
-        dgB = _lever_force_dot(cB, dcB, tB, dtB, f, df, n, dn)
+        dgA = lever_force_dot(cA, dcA, tA, dtA, f, df, n, dn)
+        dgB = lever_force_dot(cB, dcB, tB, dtB, f, df, n, dn)
         for k in range(3):
             jac[k, m] -= dgA[k]
             jac[4 + k, m] += df[k] + dgA[k] - dgB[k]

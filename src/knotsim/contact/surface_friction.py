@@ -41,16 +41,18 @@ PAIR_UNKNOWNS = 14
 
 
 @njit(inline="always", cache=True)
-def _lever(c, t, ed, n):
-    """``−c [(t·n) ė − (n·ė) t]``: the velocity of a's surface point from the tangent's turning."""
+def lever_velocity(c, t, ed, n):
+    """``−c [(t·n) ė − (n·ė) t]`` (m/s): the velocity of the surface point at ``−h n`` from the
+    turning of an edge's tangent ``t`` (``c (t × ė) × (−n)`` with ``c = h/l``, or ``h w/l`` for a
+    node's weighted share of the edge), ``ė`` the edge's rate of change (m/s)."""
     tn = v3.dot(t, n)
     ne = v3.dot(n, ed)
     return (-c * (tn * ed[0] - ne * t[0]), -c * (tn * ed[1] - ne * t[1]), -c * (tn * ed[2] - ne * t[2]))
 
 
 @njit(inline="always", cache=True)
-def _lever_dot(c, cd, t, td, ed, edd, n, nd):
-    """Directional derivative of :func:`_lever` given those of its arguments."""
+def lever_velocity_dot(c, cd, t, td, ed, edd, n, nd):
+    """Directional derivative of :func:`lever_velocity` given those of its arguments."""
     tn = v3.dot(t, n)
     ne = v3.dot(n, ed)
     tnd = v3.dot(td, n) + v3.dot(t, nd)
@@ -62,7 +64,7 @@ def _lever_dot(c, cd, t, td, ed, edd, n, nd):
 
 
 @njit(inline="always", cache=True)
-def _lever_force(c, t, f, n):
+def lever_force(c, t, f, n):
     """``g = −c [(n·t) f − (f·t) n]``, the lever-arm force on the edge's second node (N)."""
     nt = v3.dot(n, t)
     ft = v3.dot(f, t)
@@ -70,8 +72,8 @@ def _lever_force(c, t, f, n):
 
 
 @njit(inline="always", cache=True)
-def _lever_force_dot(c, cd, t, td, f, fd, n, nd):
-    """Directional derivative of :func:`_lever_force`."""
+def lever_force_dot(c, cd, t, td, f, fd, n, nd):
+    """Directional derivative of :func:`lever_force`."""
     nt = v3.dot(n, t)
     ft = v3.dot(f, t)
     ntd = v3.dot(nd, t) + v3.dot(n, td)
@@ -143,8 +145,8 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
     tan = v3.cross(ta, n)
     tbn = v3.cross(tb, n)
     # rotational parts of the surface velocities: a's at −h_a n, b's at +h_b n
-    rot_a = v3.axpy(-ha * wa, tan, _lever(ca, ta, eda, n))
-    rot_b = v3.axpy(-hb * wb, tbn, _lever(cb, tb, edb, n))
+    rot_a = v3.axpy(-ha * wa, tan, lever_velocity(ca, ta, eda, n))
+    rot_b = v3.axpy(-hb * wb, tbn, lever_velocity(cb, tb, edb, n))
     w = v3.sub(v3.add(v3.add(v3.scale(1.0 - beta_a, v0), v3.scale(beta_a, v1)), rot_a),
                v3.sub(v3.add(v3.scale(1.0 - beta_b, v2), v3.scale(beta_b, v3_)), rot_b))
     wn = v3.dot(w, n)
@@ -155,8 +157,8 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
     _, phi, psi = slip_functions(s, nu)
     fnorm = sn
     f = v3.scale(-mu * fnorm * phi, u)
-    ga = _lever_force(ca, ta, f, n)
-    gb = _lever_force(cb, tb, f, n)
+    ga = lever_force(ca, ta, f, n)
+    gb = lever_force(cb, tb, f, n)
     for r in range(3):
         force_out[r] = (1.0 - beta_a) * f[r] - ga[r]
         force_out[3 + r] = beta_a * f[r] + ga[r]
@@ -201,9 +203,9 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
         dv3 = v3.scale(idt if node == 3 else 0.0, unit)
         dtan = v3.add(v3.cross(dta, n), v3.cross(ta, dn))
         dtbn = v3.add(v3.cross(dtb, n), v3.cross(tb, dn))
-        drot_a = v3.add(_lever_dot(ca, dca, ta, dta, eda, v3.scale(idt, dea), n, dn),
+        drot_a = v3.add(lever_velocity_dot(ca, dca, ta, dta, eda, v3.scale(idt, dea), n, dn),
                         v3.scale(-ha, v3.add(v3.scale(dwa, tan), v3.scale(wa, dtan))))
-        drot_b = v3.add(_lever_dot(cb, dcb, tb, dtb, edb, v3.scale(idt, deb), n, dn),
+        drot_b = v3.add(lever_velocity_dot(cb, dcb, tb, dtb, edb, v3.scale(idt, deb), n, dn),
                         v3.scale(-hb, v3.add(v3.scale(dwb, tbn), v3.scale(wb, dtbn))))
         dtr_a = v3.add(v3.scale(bad, v3.sub(v1, v0)), v3.add(v3.scale(1.0 - beta_a, dv0), v3.scale(beta_a, dv1)))
         dtr_b = v3.add(v3.scale(bbd, v3.sub(v3_, v2)), v3.add(v3.scale(1.0 - beta_b, dv2), v3.scale(beta_b, dv3)))
@@ -213,8 +215,8 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
         udu = v3.dot(u, du)
         df = v3.scale(-mu, v3.add(v3.scale(dfn * phi, u),
                                   v3.scale(fnorm, v3.add(v3.scale(phi, du), v3.scale(psi * udu, u)))))
-        dga = _lever_force_dot(ca, dca, ta, dta, f, df, n, dn)
-        dgb = _lever_force_dot(cb, dcb, tb, dtb, f, df, n, dn)
+        dga = lever_force_dot(ca, dca, ta, dta, f, df, n, dn)
+        dgb = lever_force_dot(cb, dcb, tb, dtb, f, df, n, dn)
         for r in range(3):
             jac_out[r, m] = -bad * f[r] + (1.0 - beta_a) * df[r] - dga[r]
             jac_out[3 + r, m] = bad * f[r] + beta_a * df[r] + dga[r]

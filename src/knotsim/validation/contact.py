@@ -33,16 +33,27 @@ def line(a, b, n):
     return np.asarray(a, float)[None, :] * (1 - s) + np.asarray(b, float)[None, :] * s
 
 
-def pressed_crossing_rods(duration: float = 0.6):
-    """Run the pressed-rods case; returns ``(log, reaction_on_A (3,), reaction_on_B (3,))`` (N)."""
-    L = 0.06
-    n = 16  # even: the crossing is in the middle of an edge
+#: Crossing rods: length (m) and nodes of each (even: the crossing is in the middle of an edge).
+CROSSING_LENGTH = 0.06
+CROSSING_NODES = 16
+
+
+def crossing_rods() -> tuple[Model, BoundaryConditions]:
+    """Rod A along x (clamped by its two end pairs, groups ``A0``, ``A1``) and rod B along y,
+    0.5 mm above contact, crossing at the middle of both; E = 1 MPa, h = 1 mm, damping 0.05 Pa s."""
+    L, n = CROSSING_LENGTH, CROSSING_NODES
     a = line([-L / 2, 0, 0], [L / 2, 0, 0], n)
     b = line([0, -L / 2, 2 * H + 5e-4], [0, L / 2, 2 * H + 5e-4], n)
     m = Model([rod(a, E=1e6, name="A"), rod(b, E=1e6, name="B")], damping=0.05)
     bcs = BoundaryConditions(m)
     bcs.clamp("A0", rod="A", nodes=[0, 1])
     bcs.clamp("A1", rod="A", nodes=[-2, -1])
+    return m, bcs
+
+
+def pressed_crossing_rods(duration: float = 0.6):
+    """Run the pressed-rods case; returns ``(log, reaction_on_A (3,), reaction_on_B (3,))`` (N)."""
+    m, bcs = crossing_rods()
     speed, t_press = 0.01, 0.15  # B's ends go down 1.5 mm: 1 mm past first contact
 
     def press(t):

@@ -39,16 +39,12 @@ import math
 
 import numpy as np
 
-from knotsim.bc import BoundaryConditions
 from knotsim.contact.model import Contact, ContactOptions
-from knotsim.rods import Model
 from knotsim.simulation import Simulation
 from knotsim.solver.stepper import SolverOptions
-from knotsim.validation.contact import H, line, rod
+from knotsim.validation.contact import CROSSING_LENGTH, CROSSING_NODES, H, crossing_rods
 
-#: Rod length (m), nodes per rod, pressing depth past first contact (m), pressing time (s).
-LOG_ROLL_LENGTH = 0.06
-LOG_ROLL_NODES = 16
+#: Pressing depth of B's end groups (m, 1 mm past first contact) and pressing time (s).
 PRESS_DEPTH = 1.5e-3
 PRESS_TIME = 0.15
 
@@ -74,14 +70,9 @@ def log_roll(*, twist_clamped: bool, mu: float = 0.3, friction_model: str = "sur
     (the contact's per-node ``(slip, rolling)`` speeds at the end, m/s,
     :meth:`~knotsim.contact.model.Contact.node_slip`) and the ``log``.
     """
-    L = LOG_ROLL_LENGTH
-    n = LOG_ROLL_NODES
-    a = line([-L / 2, 0, 0], [L / 2, 0, 0], n)
-    b = line([0, -L / 2, 2 * H + 5e-4], [0, L / 2, 2 * H + 5e-4], n)
-    m = Model([rod(a, E=1e6, name="A"), rod(b, E=1e6, name="B")], damping=0.05)
-    bcs = BoundaryConditions(m)
-    bcs.clamp("A0", rod="A", nodes=[0, 1])
-    bcs.clamp("A1", rod="A", nodes=[-2, -1])
+    L = CROSSING_LENGTH
+    n = CROSSING_NODES
+    m, bcs = crossing_rods()
     t_travel = PRESS_TIME + 0.05
 
     def path(t):
