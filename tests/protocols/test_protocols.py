@@ -11,8 +11,8 @@ import pytest
 from knotsim.errors import ConfigError
 from knotsim.protocols import default_protocol, parse_assignments, resolve_params, run_protocol
 
-SUMMARY_KEYS = {"protocol", "knot", "parameters", "metrics", "outcome", "knot_status", "run_status", "topology",
-                "contact", "wall_time", "sim_time", "n_steps", "failed_attempts"}
+SUMMARY_KEYS = {"protocol", "knot", "parameters", "friction_model", "metrics", "outcome", "knot_status", "run_status",
+                "topology", "contact", "wall_time", "sim_time", "n_steps", "failed_attempts"}
 
 
 def _check_summary(out, s):
@@ -23,6 +23,11 @@ def _check_summary(out, s):
     assert on_disk["contact"]["worst_penetration_ratio"] < 0.2
     assert (out / "log.parquet").exists() and (out / "trajectory.h5").exists()
     assert s["parameters"] == on_disk["parameters"]
+    # the friction law that ran is written in every run file, whatever the default
+    model = s["parameters"].get("contact.friction_model", "surface")
+    assert on_disk["friction_model"] == model
+    assert json.loads((out / "run.json").read_text())["friction_models"] == {"contact": model}
+    assert f'friction_model = "{model}"' in (out / "run.toml").read_text()
     return on_disk
 
 
@@ -52,7 +57,7 @@ def test_overhand_pull_tightens_trefoil(tmp_path):
 def test_single_rod_bend_quick(tmp_path):
     out = tmp_path / "srb"
     s = run_protocol("single-rod-bend", "single_rod_granny", out_dir=out, quick=True,
-                     overrides={"duration": 1.0, "mean_window": 1.0})
+                     overrides={"duration": 1.0, "mean_window": 1.0, "contact.friction_model": "centreline"})
     _check_summary(out, s)
     assert s["parameters"]["contact.delta"] == 5e-4 and s["parameters"]["dt"] == 5e-3
     assert s["topology"]["start"]["knot_type"].startswith("granny")

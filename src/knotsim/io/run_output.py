@@ -10,7 +10,8 @@
   is removed once ``log.parquet`` is written: after ``kill -9`` the rows up to the last flush are
   in ``log.jsonl`` (:func:`read_log` reads either);
 - ``run.json``: configuration (when known), knotsim version, git commit of the knotsim source
-  (when it is a git checkout), wall time, outcome: written at the start with outcome
+  (when it is a git checkout), the friction law of each contact interaction (``friction_models``,
+  e.g. ``{"contact": "surface", "floor": "surface"}``), wall time, outcome: written at the start with outcome
   ``"running"``, updated at a log flush (steps, simulated time) at most every
   ``LOG_FLUSH_SECONDS`` s and never sooner than 20 times its last write took (a tying sequence's
   260 kB of grip waypoints took 0.2 s to write: rewritten every 16 steps it cost more than the
@@ -97,6 +98,12 @@ class RunOutput:
         self.sim = sim
         self.started = _time.strftime("%Y-%m-%dT%H:%M:%S%z")
         self._commit = git_commit()
+        #: the friction law of every contact interaction by name (``"surface"`` or ``"centreline"``),
+        #: whether or not the run came from a configuration file
+        self._friction_models = {
+            getattr(inter, "name", type(inter).__name__): str(getattr(inter, "settings", inter).friction_model)
+            for inter in sim.stepper.interactions
+            if hasattr(getattr(inter, "settings", inter), "friction_model")}
         self._t_start = float(sim.state.time)
         self._wall0 = _time.perf_counter()
         self._flushed = len(sim.rows)
@@ -126,6 +133,7 @@ class RunOutput:
             "machine": platform.machine(),
             "n_rods": int(self.model.n_rods),
             "n_nodes": int(self.model.n_nodes),
+            "friction_models": self._friction_models,
             "config": self.config,
         }
 
