@@ -24,6 +24,11 @@ def test_committed_study_reopens(study_dir):
     df = ks.load_study(study_dir)
     assert len(df) > 0 and "case_id" in df.columns
     assert df["case_id"].is_unique
+    # every completed protocol case says which friction law ran: the surface reruns "surface",
+    # the studies recorded before surface friction existed "centreline"
+    done = (df["kind"] == "protocol") & (df["outcome"] == "completed")
+    expected = "surface" if study_dir.name.endswith(("_surface", "_surface_checks")) else "centreline"
+    assert set(df.loc[done, "friction_model"]) == {expected}
 
 
 def test_committed_study_report_is_rebuilt(tmp_path):

@@ -517,7 +517,13 @@ def load_study(study_dir: str | os.PathLike):
     if not store.study_file.is_file():
         raise ConfigError("study_dir", f"{str(study_dir)!r} is not a study directory (no study.toml)")
     if store.results_file.is_file() and not _stale(store):
-        return pd.read_parquet(store.results_file)
+        table = pd.read_parquet(store.results_file)
+        if "friction_model" not in table.columns and "kind" in table.columns and len(table):
+            # a table from before knotsim had surface friction: its protocol cases ran the centre-line law
+            done = (table["kind"] == "protocol") & (table["outcome"] == "completed")
+            if done.any():
+                table["friction_model"] = [LEGACY_FRICTION_MODEL if d else None for d in done]
+        return table
     from knotsim.study.spec import load_study_spec
 
     spec = load_study_spec(store.study_file)
