@@ -23,7 +23,14 @@ from __future__ import annotations
 
 import importlib
 
-from knotsim.errors import ConfigError, GeometryError, KnotsimError, PenetrationError, SimulationError
+from knotsim.errors import (
+    ConfigError,
+    GeometryError,
+    KnotsimError,
+    PenetrationError,
+    SimulationError,
+    ValidityError,
+)
 
 __version__ = "0.1.0"
 
@@ -69,5 +76,5 @@ def __dir__():
     return sorted(set(globals()) | set(_LAZY))
 
 
-__all__ = ["ConfigError", "GeometryError", "KnotsimError", "PenetrationError", "SimulationError", "__version__",
+__all__ = ["ConfigError", "GeometryError", "KnotsimError", "PenetrationError", "SimulationError", "ValidityError", "__version__",
            *sorted(_LAZY)]

@@ -46,5 +46,20 @@ class SimulationError(KnotsimError, RuntimeError):
         super().__init__(message)
 
 
+class ValidityError(SimulationError):
+    """A converged step left the model's validity (see :mod:`knotsim.solver.validity`): a non-finite
+    value, an axial strain beyond ``solver.max_axial_strain`` or energy created without a source.
+
+    Attributes (besides those of :class:`SimulationError`): ``quantity`` (``"axial_strain"``,
+    ``"energy_gain"``, ``"energy"``, ``"velocity"``, ...) and ``value``, the offending value.
+    """
+
+    def __init__(self, message: str, *, quantity: str, value: float, time: float | None = None,
+                 last_good_state: Any = None):
+        self.quantity = quantity
+        self.value = value
+        super().__init__(message, last_good_state=last_good_state, time=time)
+
+
 class PenetrationError(SimulationError):
     """Contact penetration exceeded the configured limit and could not be cured by smaller steps."""

@@ -13,10 +13,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from knotsim.errors import ConfigError, SimulationError
+from knotsim.errors import ConfigError, SimulationError, ValidityError
 from knotsim.solver.state import State, initial_state
 from knotsim.solver.steplog import StepLog
 from knotsim.solver.stepper import SolverSettings, StepFailure, Stepper, StepResult
+from knotsim.solver.validity import ValidityMonitor
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -43,6 +44,10 @@ class Simulation:
         self.stepper = Stepper(model, [*interactions, *(i for i in own if all(i is not j for j in interactions))],
                                self.settings)
         self.state = state.copy() if state is not None else initial_state(model)
+        #: the validity guards (:mod:`knotsim.solver.validity`), checked on every converged step
+        self.validity = ValidityMonitor(model, self.settings.max_axial_strain, self.settings.max_energy_gain,
+                                        _energy_floor(model, self.stepper.force_tol),
+                                        _untracked_sources(self.stepper.interactions))
         self.dt = self.settings.dt
         self.dt_min = self.settings.dt_min or self.settings.dt / 1024.0
         self._easy = 0
@@ -94,6 +99,11 @@ class Simulation:
                         "softer contact, or check the boundary conditions",
                         last_good_state=self.state.copy(), time=self.state.time) from exc
                 continue
+            try:
+                self.validity.check(trial, res)
+            except ValidityError as exc:
+                exc.last_good_state, exc.time = self.state.copy(), self.state.time
+                raise
             self.state = trial
             if not shortened:
                 self._before_short_step = None
@@ -219,6 +229,7 @@ class Simulation:
             "driver": ({"dt": float(self.dt), "easy": int(self._easy), "retry_cooldown": int(self._retry_cooldown),
                         "n_failures": int(self.n_failures)}, {})}
         out["stepper"] = self.stepper.save_state()
+        out["validity"] = self.validity.save_state()
         for inter in self.stepper.interactions:
             if hasattr(inter, "save_state"):
                 out[f"interaction/{inter.name}"] = inter.save_state()
@@ -272,12 +283,24 @@ class Simulation:
             self._retry_cooldown = int(meta["retry_cooldown"])
             self.n_failures = int(meta["n_failures"])
         self.stepper.load_state(*checkpoint.section("stepper"))
+        self.validity.load_state(*checkpoint.section("validity"))
         for inter in self.stepper.interactions:
             if hasattr(inter, "load_state"):
                 inter.load_state(*checkpoint.section(f"interaction/{inter.name}"))
         if boundary_conditions and self.bcs is not None:
             self.bcs.load_state({name: checkpoint.section(f"bc/{name}") for name in self.bcs.groups},
                                 checkpoint.time)
+
+
+def _energy_floor(model, force_tol: float) -> float:
+    """J: the smallest energy scale of the energy guard, ``1e3 force_tol`` times the total rope length
+    (a run at rest handles no energy; its round-off must not count as energy created)."""
+    return 1e3 * force_tol * float(np.sum(model.rest_length))
+
+
+def _untracked_sources(interactions) -> list[str]:
+    """Names of the interactions that supply work the energy guard cannot count."""
+    return [name for inter in interactions for name in getattr(inter, "untracked_sources", list)()]
 
 
 def _copy_sections(sections: dict[str, tuple[dict, dict]]) -> dict[str, tuple[dict, dict]]:

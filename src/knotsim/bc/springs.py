@@ -41,10 +41,13 @@ class BCInteraction:
         self._spring_force: dict[str, np.ndarray] = {}
         self._ring_moment: dict[str, float] = {}
         self._source = {}
+        self._interval = (0.0, 0.0)
 
     # -- Interaction protocol ---------------------------------------------------------------
     def begin_step(self, state_in, dt: float) -> None:
-        """Keep the frames of the ring cuts at the start of the step (to evaluate their twist)."""
+        """Keep the frames of the ring cuts at the start of the step (to evaluate their twist) and the
+        step's time interval (for :meth:`supplied_work`)."""
+        self._interval = (float(state_in.time), float(state_in.time) + dt)
         for g in self.rings:
             c = g.ring
             e = list(c.edges)
@@ -86,6 +89,32 @@ class BCInteraction:
 
     def check(self, q: np.ndarray) -> str | None:
         return None
+
+    def supplied_work(self, q_prev: np.ndarray, q: np.ndarray, dt: float) -> float:
+        """Work (J) the springs' moving anchors did on the rods during the accepted step from
+        ``q_prev`` to ``q``: ``E(q_prev, a_1) - E(q_prev, a_0)``, the change of the spring energy as
+        the anchors moved from ``a_0`` to ``a_1`` with the nodes at their start positions. The rest,
+        ``E(q, a_1) - E(q_prev, a_1)``, is the work of the spring force at the step's end over the
+        nodes' motion, which backward Euler counts as the rods' own (see
+        :mod:`knotsim.solver.validity`)."""
+        t0, t1 = self._interval
+        work = 0.0
+        row = 0
+        for g in self.springs:
+            n = len(g.nodes)
+            if g.target is not None:
+                t_from = max(t0, g.anchor_time)
+                shift = g.path(t1 - g.start) - g.path(max(t_from - g.start, 0.0))
+                d1 = q_prev[self._dofs[row:row + n]] - g.target
+                d0 = d1 + shift[None, :]
+                work += 0.5 * g.stiffness / n * float(np.sum(d1 * d1) - np.sum(d0 * d0))
+            row += n
+        return work
+
+    def untracked_sources(self) -> list[str]:
+        """Sources whose work :meth:`supplied_work` does not count: ring-twist groups (they change the
+        rest twist)."""
+        return [f"ring-twist group {g.name!r}" for g in self.rings]
 
     def stats(self) -> dict:
         out = {}

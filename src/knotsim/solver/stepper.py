@@ -28,6 +28,7 @@ from knotsim.solver._kernels import (
     same_values,
     split_max_abs,
 )
+from knotsim.solver._validity_kernels import constrained_work
 from knotsim.solver.diagnosis import largest_residual_at
 from knotsim.solver.linear import BandedSolver, LinearSolveError, SparseSolver
 from knotsim.solver.newton import newton_solve
@@ -104,7 +105,12 @@ class SolverOptions:
       factorised Jacobian, instead of assembling and factorising one at its start, when that step
       converged in one iteration and the step size, the constrained unknowns and the interactions'
       block pattern are unchanged (the within-step rule above then refreshes it when it stops
-      contracting fast). Checkpoints keep that Jacobian, so that continued runs stay bit for bit.
+      contracting fast). Checkpoints keep that Jacobian, so that continued runs stay bit for bit;
+    - validity limits (:mod:`knotsim.solver.validity`): ``max_axial_strain``, the largest
+      ``|l/l0 - 1|`` of an edge (default 0.5), and ``max_energy_gain``, the energy created without a
+      source as a fraction of the energy the run handled (default 0.5); a converged step beyond
+      either stops the run with a :class:`~knotsim.errors.ValidityError` (``math.inf`` switches a
+      guard off).
     """
 
     dt: float = 1e-3
@@ -121,6 +127,8 @@ class SolverOptions:
     predictor: Predictor | str = Predictor.ACCELERATION
     jacobian_reuse: bool = True
     jacobian_across_steps: bool = True
+    max_axial_strain: float = 0.5
+    max_energy_gain: float = 0.5
 
     def validate(self) -> None:
         if not (isinstance(self.dt, int | float) and self.dt > 0 and math.isfinite(self.dt)):
@@ -133,6 +141,10 @@ class SolverOptions:
             v = getattr(self, name)
             if v is not None and not (v > 0):
                 raise ConfigError(f"solver.{name}", f"must be positive, got {v!r}")
+        for name in ("max_axial_strain", "max_energy_gain"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not v > 0:
+                raise ConfigError(f"solver.{name}", f"must be a positive number (inf switches the guard off), got {v!r}")
         self.linear_solver = _member(LinearSolver, self.linear_solver, "solver.linear_solver")
         self.predictor = _member(Predictor, self.predictor, "solver.predictor")
 
@@ -165,6 +177,11 @@ class StepResult:
     interaction_stats: dict = field(default_factory=dict)
     solver: str = ""
     attempts: int = 1
+    #: J: work done on the rods during the step by supports, applied loads and moving sources
+    #: (see :mod:`knotsim.solver.validity`)
+    external_work: float = 0.0
+    #: J: energy of each interaction at the end of the step (also in ``energies``)
+    interaction_energies: dict = field(default_factory=dict)
 
 
 class _StepSystem:
@@ -592,7 +609,12 @@ class Stepper:
         self._history = (t_new, v_in, dt)
         state_out.time = t_new
         stats = {}
+        work = constrained_work(system.last_full_residual, fixed, f_bc, q, state_in.q)
         for inter in self.interactions:
             stats.update(inter.stats())
+            supplied = getattr(inter, "supplied_work", None)
+            if supplied is not None:
+                work += supplied(state_in.q, q, dt)
         return StepResult(t_new, dt, res.iterations, res.residual, res.line_search_cuts, energies, reactions,
-                          stats, self.last_solver)
+                          stats, self.last_solver, external_work=float(work),
+                          interaction_energies={i.name: energies[i.name] for i in self.interactions})

@@ -1,0 +1,174 @@
+"""Validity guards: a run stops when its state leaves the model, instead of reporting nonsense.
+
+After every converged step, before it is accepted, :class:`ValidityMonitor` checks three things
+(limits in :class:`~knotsim.solver.stepper.SolverOptions`, documented in ``docs/physics.md`` §6):
+
+- **finite values**: positions, edge angles, velocities and energies are finite;
+- **axial strain** ``|l/l0 - 1|`` of every edge is at most ``max_axial_strain`` (default 0.5). The
+  stretching energy of Discrete Elastic Rods is linear elasticity of the centre line; a rope whose
+  edges stretch by more than tens of per cent is outside it (and outside any rope's material);
+- **energy without a source**: the total energy ``E`` (elastic, contact and obstacle penalties,
+  springs, kinetic, gravity) may only grow by the work ``W`` supplied by the supports (prescribed
+  motion: ``W = sum r_i dq_i`` over the constrained unknowns, ``r`` their reaction), the applied
+  forces and moments, spring grips' moving anchors and moving obstacles. Backward Euler, damping
+  and friction dissipate, so the energy created from nothing, ``G = sum (dE - W)``, stays near or
+  below zero in a valid run; the run stops when ``G`` exceeds ``max_energy_gain`` times the energy
+  the run has handled (the largest of the energies present and of the summed ``|W|``). Where a run
+  has a source whose work is not counted (a ring-twist group, which changes the rest twist), the
+  energy check is not applied and ``run.json`` says so.
+
+A violation raises :class:`~knotsim.errors.ValidityError` (a :class:`~knotsim.errors.SimulationError`)
+naming the rod, the edge or node, the quantity, its value and the time; the state before the
+offending step is attached and the run's output up to it is kept. A run that comes within half of a
+limit gets a warning in ``run.json`` (:meth:`ValidityMonitor.report`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from knotsim.errors import ValidityError
+from knotsim.solver._validity_kernels import first_non_finite, largest_axial_strain
+
+__all__ = ["WARN_FRACTION", "ValidityMonitor"]
+
+#: a run whose worst strain or energy gain exceeds this fraction of its limit gets a warning
+WARN_FRACTION = 0.5
+
+
+class ValidityMonitor:
+    """Checks every converged step against the model's validity limits; keeps the run's extremes.
+
+    ``model``: the :class:`~knotsim.rods.Model`; ``max_axial_strain`` (dimensionless, ``inf`` to
+    switch off); ``max_energy_gain`` (dimensionless, ``inf`` to switch off); ``energy_floor`` (J):
+    the smallest energy scale the gain is measured against (round-off of a run at rest);
+    ``untracked_sources``: names of sources whose work is not counted (then no energy check)."""
+
+    def __init__(self, model, max_axial_strain: float, max_energy_gain: float, energy_floor: float,
+                 untracked_sources: list[str] | None = None):
+        self.model = model
+        self.max_axial_strain = float(max_axial_strain)
+        self.max_energy_gain = float(max_energy_gain)
+        self.energy_floor = float(energy_floor)
+        self.untracked_sources = list(untracked_sources or [])
+        # run state (saved in checkpoints: see save_state)
+        self.energy = math.nan          # J, total energy after the last accepted step
+        self.gravity_start = math.nan   # J, gravity potential after the first accepted step
+        self.gain = 0.0                 # J, energy created without a source since then
+        self.work_handled = 0.0         # J, sum of |W| over the accepted steps
+        self.scale = 0.0                # J, the largest energy handled so far (see module docstring)
+        self.worst_strain = (0.0, -1, math.nan)      # (strain, global edge, time s)
+        self.worst_gain = (0.0, math.nan)            # (gain / scale, time s)
+
+    # ------------------------------------------------------------------ the check
+    def check(self, state_out, res) -> None:
+        """Raise :class:`ValidityError` if the step that ended in ``state_out`` (its
+        :class:`~knotsim.solver.stepper.StepResult` ``res``) left the model's validity; else record it
+        (call once per accepted step, after it converged and before it is accepted)."""
+        m = self.model
+        t = float(res.time)
+        for name, arr in (("position or edge angle", state_out.q), ("velocity", state_out.v)):
+            i = int(first_non_finite(arr))
+            if i >= 0:
+                raise ValidityError(f"non-finite {name} {float(arr[i])!r} at {self._dof_name(i)} at t={t:.6g} s; the "
+                                    "state left the model (check the loads, the units and dt)", quantity=name,
+                                    value=float(arr[i]))
+        strain, edge = largest_axial_strain(state_out.q, m.edge_dofs, m.rest_length)
+        edge = int(edge)
+        if edge >= 0 and strain > self.worst_strain[0]:
+            self.worst_strain = (float(strain), edge, t)
+        if edge >= 0 and strain > self.max_axial_strain:
+            raise ValidityError(
+                f"axial strain {strain:.4g} of {self._edge_name(edge)} at t={t:.6g} s exceeds max_axial_strain="
+                f"{self.max_axial_strain:g}: the rope is stretched beyond the model (a load in the wrong units? "
+                "a grip pulling against a clamp?); raise solver.max_axial_strain only if such strains are meant",
+                quantity="axial_strain", value=float(strain))
+        self._check_energy(res, t)
+
+    def _check_energy(self, res, t: float) -> None:
+        e = res.energies
+        energy = e.get("elastic", 0.0) + e.get("kinetic", 0.0) + e.get("gravity", 0.0)
+        stored = abs(e.get("elastic", 0.0)) + abs(e.get("kinetic", 0.0))
+        for value in res.interaction_energies.values():
+            energy += value
+            stored += abs(value)
+        if not math.isfinite(energy):
+            raise ValidityError(f"non-finite energy {energy!r} at t={t:.6g} s; the state left the model",
+                                quantity="energy", value=energy)
+        if math.isnan(self.energy):  # the first step: the reference
+            self.energy = energy
+            self.gravity_start = e.get("gravity", 0.0)
+            self.scale = max(stored, self.energy_floor)
+            return
+        self.gain += energy - self.energy - res.external_work
+        self.work_handled += abs(res.external_work)
+        stored += abs(e.get("gravity", 0.0) - self.gravity_start)
+        self.scale = max(self.scale, stored, self.work_handled)
+        self.energy = energy
+        if self.untracked_sources:
+            return
+        ratio = self.gain / self.scale
+        if ratio > self.worst_gain[0]:
+            self.worst_gain = (ratio, t)
+        if ratio > self.max_energy_gain:
+            raise ValidityError(
+                f"energy grew without a source: {self.gain:.4g} J created by t={t:.6g} s, {ratio:.3g} x the energy "
+                f"the run handled ({self.scale:.4g} J), beyond max_energy_gain={self.max_energy_gain:g}; the "
+                "time integration is unstable here (try a smaller dt, softer contact or a finer rope)",
+                quantity="energy_gain", value=ratio)
+
+    def _edge_name(self, edge: int) -> str:
+        m = self.model
+        rod = int(m.edge_rod[edge])
+        return f"edge {int(m.edge_local[edge])} of rod {m.rod_names[rod]!r}"
+
+    def _dof_name(self, i: int) -> str:
+        m = self.model
+        if m.theta_mask[i]:
+            e = int(np.flatnonzero(m.edge_theta_dof == i)[0])
+            return f"the angle of {self._edge_name(e)}"
+        node = int(np.flatnonzero((m.node_dof <= i) & (i < m.node_dof + 3))[0])
+        rod = int(m.node_rod[node])
+        return f"node {node - int(m.rod_node_start[rod])} of rod {m.rod_names[rod]!r}"
+
+    # ------------------------------------------------------------------ records
+    def report(self) -> dict:
+        """What ``run.json`` records under ``validity``: limits, extremes and ``warnings``."""
+        strain, edge, ts = self.worst_strain
+        gain, tg = self.worst_gain
+        out = {"max_axial_strain": self.max_axial_strain, "max_energy_gain": self.max_energy_gain,
+               "largest_axial_strain": strain, "largest_axial_strain_at": self._edge_name(edge) if edge >= 0 else None,
+               "largest_axial_strain_time": None if math.isnan(ts) else ts,
+               "largest_energy_gain": gain, "largest_energy_gain_time": None if math.isnan(tg) else tg,
+               "energy_check": ("applied" if not self.untracked_sources else
+                                "not applied: the work of " + ", ".join(self.untracked_sources) + " is not counted"),
+               "warnings": []}
+        if edge >= 0 and WARN_FRACTION * self.max_axial_strain < strain <= self.max_axial_strain:
+            out["warnings"].append(f"axial strain {strain:.3g} of {self._edge_name(edge)} at t={ts:.6g} s is more "
+                                   f"than half of max_axial_strain={self.max_axial_strain:g}")
+        if WARN_FRACTION * self.max_energy_gain < gain <= self.max_energy_gain:
+            out["warnings"].append(f"energy created without a source reached {gain:.3g} x the energy handled at "
+                                   f"t={tg:.6g} s, more than half of max_energy_gain={self.max_energy_gain:g}")
+        return out
+
+    def save_state(self) -> tuple[dict, dict]:
+        """The monitor's memory (``(scalars, arrays)`` for :mod:`knotsim.io.checkpoint`)."""
+        s, e, ts = self.worst_strain
+        g, tg = self.worst_gain
+        return ({"energy": self.energy, "gravity_start": self.gravity_start, "gain": self.gain,
+                 "work_handled": self.work_handled, "scale": self.scale, "worst_strain": s, "worst_strain_edge": e,
+                 "worst_strain_time": ts, "worst_gain": g, "worst_gain_time": tg}, {})
+
+    def load_state(self, meta: dict, arrays: dict) -> None:
+        """Restore what :meth:`save_state` returned (nothing: a checkpoint from before the monitor)."""
+        if not meta:
+            return
+        self.energy = float(meta["energy"])
+        self.gravity_start = float(meta["gravity_start"])
+        self.gain = float(meta["gain"])
+        self.work_handled = float(meta["work_handled"])
+        self.scale = float(meta["scale"])
+        self.worst_strain = (float(meta["worst_strain"]), int(meta["worst_strain_edge"]), float(meta["worst_strain_time"]))
+        self.worst_gain = (float(meta["worst_gain"]), float(meta["worst_gain_time"]))
