@@ -1,7 +1,7 @@
 """Validity guards: a run stops when its state leaves the model, instead of reporting nonsense.
 
 After every converged step, before it is accepted, :class:`ValidityMonitor` checks three things
-(limits in :class:`~knotsim.solver.stepper.SolverOptions`, documented in ``docs/physics.md`` §6):
+(limits in :class:`~knotsim.solver.stepper.SolverOptions`, derived in ``docs/physics.md`` §1.8):
 
 - **finite values**: positions, edge angles, velocities and energies are finite;
 - **axial strain** ``|l/l0 - 1|`` of every edge is at most ``max_axial_strain`` (default 0.5). The
