@@ -213,6 +213,7 @@ def _rope_count(proto: LoadingProtocol) -> int:
 def _check_fit(proto: LoadingProtocol, geo) -> None:
     """:class:`ConfigError` (field ``protocol``) when ``geo`` has another number of ropes than
     ``proto`` loads, naming the protocols that fit."""
+    from knotsim.protocols.geometry import CHOOSE_MATRICES
     from knotsim.protocols.registry import protocols
 
     want, have = _rope_count(proto), len(geo.ropes)
@@ -220,7 +221,8 @@ def _check_fit(proto: LoadingProtocol, geo) -> None:
         return
     fits = [p.name for p in protocols().values() if _rope_count(p) == have]
     rope = lambda n: f"{n} rope" + ("s" if n != 1 else "")  # noqa: E731
-    raise ConfigError("protocol", f"{proto.name} loads {rope(want)}, but {geo.name} has {rope(have)}; "
+    choose = f"{CHOOSE_MATRICES}, or " if geo.found else ""
+    raise ConfigError("protocol", f"{proto.name} loads {rope(want)}, but found {geo.describe_ropes()}; {choose}"
                                   + (f"use --protocol {' or '.join(fits)}" if fits else "no protocol fits it"))
 
 
@@ -232,7 +234,7 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
     Returns ``(protocol, ctx, spec, notes)``: the protocol, its :class:`RunContext`, the complete
     :class:`~knotsim.runspec.RunSpec` and a list of notes for the user (e.g. quick settings that were
     not applied because the geometry fixes the node count)."""
-    from knotsim.protocols.geometry import geometry_from_library, geometry_from_source
+    from knotsim.protocols.geometry import geometry_from_library, geometry_from_source, parse_matrices
     from knotsim.protocols.registry import get_protocol
     from knotsim.rods import RodSpec
     from knotsim.runspec import RunSpec
@@ -253,6 +255,9 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
         knot_defaults = {k: v for k, v in spec.defaults.items() if k in ("radius", "length", "n_nodes")
                          and k not in proto.fixed_geometry}
         params = resolve_params(templates, defaults, knot_defaults, quick_layer, overrides)
+        if parse_matrices(params["geometry_matrices"]):
+            raise ConfigError("geometry_matrices", f"names the matrices of a --geometry .mat file; {knot!r} is a "
+                                                   "library knot")
         geo = geometry_from_library(knot, n_nodes=params["n_nodes"], radius=params["radius"],
                                     length=params["length"])
     else:
@@ -273,7 +278,10 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
         scale = float(params["geometry_scale"])
         if not (scale > 0 and math.isfinite(scale)):
             raise ConfigError("geometry_scale", f"must be a positive factor (file units to m), got {scale!r}")
-        geo = geometry_from_source(geometry, radius=params["radius"], scale=scale)
+        matrices = parse_matrices(params["geometry_matrices"])
+        if matrices:
+            params.values["geometry_matrices"] = ",".join(matrices)
+        geo = geometry_from_source(geometry, radius=params["radius"], scale=scale, matrices=matrices)
         if geo.kind == "run" and overrides and "radius" in overrides and overrides["radius"] != geo.radius:
             raise ConfigError("radius", f"the run {geometry!r} was computed with radius {geo.radius} m; "
                                         "continuing it with another radius is not the same rope")

@@ -2,8 +2,8 @@
 :mod:`knotsim.cli` with ``main.add_command``)::
 
     knotsim knots
-    knotsim pull KNOT | --geometry PATH [--protocol P] [--set key=value ...] [-o OUT] [--overwrite] [--quick]
-                 [--save-config F] [--no-figures]
+    knotsim pull KNOT | --geometry PATH [--matrices A,B] [--protocol P] [--set key=value ...] [-o OUT]
+                 [--overwrite] [--quick] [--save-config F] [--no-figures]
     knotsim pull [KNOT] [--protocol P] --show-params
     knotsim tie SEQUENCE [-o OUT] [--overwrite] | --list
 
@@ -121,6 +121,9 @@ def _figures(outdir: Path) -> list[Path]:
 @click.option("--geometry", type=click.Path(exists=True, path_type=Path), default=None,
               help="Start from this node file (text x y z [theta], .csv, .npy, .mat) or earlier run directory "
                    "instead of a library knot.")
+@click.option("--matrices", default=None, metavar="A,B",
+              help="The rope matrices of a --geometry .mat file, in order (the ropes take their names; default: "
+                   "every 3 x N or N x 3 matrix, and an ambiguous file is refused). Same as --set geometry_matrices=A,B.")
 @click.option("--protocol", "protocol", default=None,
               help="overhand-pull, single-rod-bend or two-rope-bend (default: from the knot's kind, or the protocol "
                    "that wrote the --geometry run).")
@@ -140,7 +143,8 @@ def _figures(outdir: Path) -> list[Path]:
 @click.option("--progress/--no-progress", default=None, help="Progress bar (default: when on a terminal).")
 @click.option("--json", "as_json", is_flag=True, help="Print the whole summary as JSON.")
 @_exit_codes
-def pull(knot: str | None, geometry: Path | None, protocol: str | None, assignments: tuple[str, ...],
+def pull(knot: str | None, geometry: Path | None, matrices: str | None, protocol: str | None,
+         assignments: tuple[str, ...],
          outdir: Path | None, overwrite: bool, quick: bool, show_params: bool, save_config: Path | None,
          figures: bool, progress: bool | None, as_json: bool):
     """Measure the strength of KNOT (library name or .toml drawing) or of --geometry with a loading protocol."""
@@ -156,13 +160,20 @@ def pull(knot: str | None, geometry: Path | None, protocol: str | None, assignme
     if (knot is None) == (geometry is None):
         raise ConfigError("knot", "give a library KNOT or --geometry PATH (one of them)")
     overrides = parse_assignments(assignments)
+    if matrices is not None:
+        if geometry is None:
+            raise ConfigError("matrices", "--matrices names the matrices of a --geometry .mat file")
+        if "geometry_matrices" in overrides:
+            raise ConfigError("matrices", "give --matrices or --set geometry_matrices=..., not both")
+        overrides["geometry_matrices"] = matrices
     if protocol is None:
         if knot is not None:
             protocol = default_protocol(knot)
         else:
-            from knotsim.protocols.geometry import geometry_from_source
+            from knotsim.protocols.geometry import geometry_from_source, parse_matrices
 
-            geo = geometry_from_source(str(geometry), radius=1.0)
+            geo = geometry_from_source(str(geometry), radius=1.0,
+                                       matrices=parse_matrices(overrides.get("geometry_matrices")))
             protocol = geo.protocol_hint or ("overhand-pull" if len(geo.ropes) == 1 else "two-rope-bend")
     name = Path(knot).stem if knot is not None else Path(str(geometry)).name
     outdir = prepare_output(outdir, default_dir(name, protocol), overwrite)

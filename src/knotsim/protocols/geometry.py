@@ -38,7 +38,8 @@ class ProtocolGeometry:
     ``state``: per rope ``{"velocities", "edge_angles", "reference_directors"}`` arrays for a run
     frame, else empty; ``protocol_hint``: the protocol that produced a run frame (from its
     ``run.toml``), else ``None``; ``contact_stiffness``: the adaptive contact stiffness k_c (N/m)
-    a run frame's ``checkpoint.npz`` ended with, else ``None``.
+    a run frame's ``checkpoint.npz`` ended with, else ``None``; ``found``: what a ``.mat`` node
+    file holds (every matrix and its shape, :attr:`knotsim.io.geometry.NodeRopes.found`), else ``""``.
     """
 
     name: str
@@ -54,6 +55,16 @@ class ProtocolGeometry:
     protocol_hint: str | None = None
     knot_hint: str | None = None
     contact_stiffness: float | None = None
+    found: str = ""
+
+    def describe_ropes(self) -> str:
+        """``"2 ropes in 'F.mat' (A: 125 nodes, B: 91 nodes)"``: how many ropes, where from, their
+        names and node counts (and, for a .mat file, every matrix it holds)."""
+        n = len(self.ropes)
+        names = ", ".join(f"{a}: {len(x)} nodes" for a, x in zip(self.rope_names, self.ropes, strict=True))
+        where = self.source or self.name
+        held = f"; the file holds {self.found}" if self.found else ""
+        return f"{n} rope{'s' if n != 1 else ''} in {where!r} ({names}){held}"
 
 
 def is_library_knot(name: str) -> bool:
@@ -78,16 +89,34 @@ def _arc_length(x: np.ndarray) -> float:
     return float(np.sum(np.linalg.norm(np.diff(x, axis=0), axis=1)))
 
 
+#: How a protocol's user chooses the matrices of a .mat node file (said in error messages).
+CHOOSE_MATRICES = "choose the ropes with --matrices A,B (or the parameter geometry_matrices = \"A,B\")"
+
+
+def parse_matrices(value) -> list[str] | None:
+    """The ``geometry_matrices`` parameter as a list of names (``"A,B"`` or ``["A", "B"]``), ``None``
+    when empty. Raises :class:`ConfigError` for an empty name."""
+    if value is None or value == "" or (isinstance(value, list | tuple) and not value):
+        return None
+    items = value.split(",") if isinstance(value, str) else list(value) if isinstance(value, list | tuple) else [value]
+    if not all(isinstance(v, str) and v.strip() for v in items):
+        raise ConfigError("geometry_matrices", f"expected matrix names separated by commas, e.g. \"A,B\", got {value!r}")
+    return [v.strip() for v in items]
+
+
 def geometry_from_source(path: str, *, radius: float | None, scale: float = 1.0,
                          matrices: list[str] | None = None) -> ProtocolGeometry:
     """Geometry from a node file or an earlier run's directory.
 
-    ``radius`` (m) is the rod radius for a node file (a run directory brings its own). Raises
-    :class:`ConfigError` for a missing or unreadable source, :class:`GeometryError` for zero-length
-    edges."""
-    from knotsim.io.geometry import is_run_directory, read_node_file, read_run_frame
+    ``radius`` (m) is the rod radius for a node file (a run directory brings its own); ``matrices``
+    names the ropes of a ``.mat`` file (:func:`knotsim.io.geometry.read_node_ropes`; the ropes are
+    named after their matrices). Raises :class:`ConfigError` for a missing or unreadable source or
+    an ambiguous ``.mat`` file (listing its matrices), :class:`GeometryError` for zero-length edges."""
+    from knotsim.io.geometry import is_run_directory, read_node_ropes, read_run_frame
 
     p = Path(path)
+    if matrices and (is_run_directory(p) or p.suffix.lower() != ".mat"):
+        raise ConfigError("geometry_matrices", f"names the matrices of a .mat node file; {str(p)!r} is not one")
     if is_run_directory(p):
         if scale != 1.0:
             raise ConfigError("geometry_scale", f"{str(p)!r} is a run directory, already in m; geometry_scale must be 1")
@@ -112,11 +141,10 @@ def geometry_from_source(path: str, *, radius: float | None, scale: float = 1.0,
                                           "or trajectory.h5)")
         if radius is None:
             raise ConfigError("radius", "a node file needs the rod radius (--set radius=...)")
-        ropes = read_node_file(p, matrices=matrices, scale=scale, field="geometry")
-        names = list(matrices) if matrices else ([f"rope{k}" for k in range(len(ropes))] if len(ropes) > 1
-                                                 else ["rope"])
-        geo = ProtocolGeometry(name=p.name, kind="nodes", ropes=ropes, rope_names=names, radius=float(radius),
-                               length=_arc_length(ropes[0]), source=str(p))
+        nodes = read_node_ropes(p, matrices=matrices, scale=scale, field="geometry", choose=CHOOSE_MATRICES)
+        geo = ProtocolGeometry(name=p.name, kind="nodes", ropes=nodes.ropes, rope_names=nodes.names,
+                               radius=float(radius), length=_arc_length(nodes.ropes[0]), source=str(p),
+                               found=nodes.found if p.suffix.lower() == ".mat" else "")
     check_edges(geo)
     return geo
 

@@ -30,6 +30,7 @@ COMMON_DEFAULTS: dict[str, Any] = {
     "duration": None,         # simulated time, s (None: the protocol decides)
     "output_interval": 0.1,   # trajectory frame interval, s
     "geometry_scale": 1.0,    # factor from a node file's units to m (geometry sources only)
+    "geometry_matrices": "",  # names of a .mat node file's rope matrices, "A,B" ("": the file's rule)
     "ramp_time": 0.0,         # s over which the pull speed grows from 0 (0: abrupt start, as published)
 }
 
@@ -51,6 +52,8 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "duration": ("s", "simulated time (none: the protocol computes it)"),
     "output_interval": ("s", "time between trajectory frames"),
     "geometry_scale": ("-", "factor from a --geometry node file's units to m (geometry sources only)"),
+    "geometry_matrices": ("text", "the rope matrices of a --geometry .mat file, in order, e.g. A,B (empty: every "
+                                  "3 x N or N x 3 matrix; an ambiguous file is refused); the ropes take their names"),
     "ramp_time": ("s", "the pull speed grows linearly from 0 over this time (0: the abrupt start of the published set-ups)"),
     "contact.delta": ("m", "contact distance tolerance of the IMC potential"),
     "contact.nu": ("m/s", "slip speed below which friction is smoothed (sticking)"),
@@ -197,6 +200,8 @@ def _coerce(key: str, default: Any, value: Any) -> Any:
                 raise ConfigError(key, f"expected an integer, got {value!r}")
             return int(value)
         return float(value)
+    if key == "geometry_matrices" and isinstance(value, list | tuple) and all(isinstance(v, str) for v in value):
+        return ",".join(value)
     if isinstance(default, str) and not isinstance(value, str):
         raise ConfigError(key, f"expected a string, got {value!r}")
     return value

@@ -7,7 +7,9 @@ Shapes (``shape = ...``) and their keys:
 - ``"helix"``: ``helix_radius`` (m), ``pitch`` (m per turn), ``turns``, ``n_nodes``, ``start``, ``axis``;
 - ``"circle"`` (a closed ring): ``ring_radius`` (m), ``n_nodes``, ``center`` (m), ``normal``;
 - ``"points"``: ``positions = [[x, y, z], ...]`` (m) or ``file`` (text ``x y z [...]`` columns,
-  ``.csv``, ``.npy``, MATLAB ``.mat`` with ``matrix = "A"``), relative to the run file; ``scale``
+  ``.csv``, ``.npy``, MATLAB ``.mat`` with ``matrix = "A"``; layouts in :mod:`knotsim.io.geometry`),
+  relative to the run file; ``rope`` (index or name) picks one rope of a file that holds several
+  (blank-line separated blocks of a text file, or the rope matrices of a .mat file); ``scale``
   multiplies the positions (default 1);
 - ``"knot"``: ``knot`` (a library name or a drawing file), ``rope`` (index or name, default 0),
   optional ``n_nodes`` and ``length`` (m; default the drawing's); built at this rod's ``radius``;
@@ -50,7 +52,7 @@ _ROD_SHAPES = {
     "straight": ("length", "n_nodes", "start", "direction"),
     "helix": ("helix_radius", "pitch", "turns", "n_nodes", "start", "axis"),
     "circle": ("ring_radius", "n_nodes", "center", "normal"),
-    "points": ("positions", "file", "matrix", "scale"),
+    "points": ("positions", "file", "matrix", "rope", "scale"),
     "knot": ("knot", "rope", "n_nodes", "length"),
     "run": ("run", "frame", "rod", "continue_motion"),
 }
@@ -109,17 +111,31 @@ def _resolve(name: str, base_dir: Path) -> Path:
 
 def _file_positions(t: dict, path: str, base_dir: Path) -> np.ndarray:
     """Positions (m) of shape 'points' from ``file`` (text, .csv, .npy, .mat; see
-    :func:`knotsim.io.geometry.read_node_file`); ``matrix`` names a .mat matrix, ``scale`` multiplies."""
-    from knotsim.io.geometry import read_node_file
+    :func:`knotsim.io.geometry.read_node_ropes`); ``matrix`` names a .mat matrix, ``rope`` (index
+    or name) picks one rope of a file with several, ``scale`` multiplies."""
+    from knotsim.io.geometry import read_node_ropes
 
     f = _resolve(as_string(t["file"], f"{path}.file"), base_dir)
     matrix = get_field(t, "matrix", path, as_string, None)
     scale = get_field(t, "scale", path, as_number, 1.0, positive=True)
-    ropes = read_node_file(f, matrices=[matrix] if matrix else None, scale=scale, field=f"{path}.file")
-    if len(ropes) != 1:
-        raise ConfigError(f"{path}.matrix", f"{str(f)!r} holds {len(ropes)} ropes; name the one for this rod "
-                                            "with matrix = \"A\" (one [[rods]] table per rope)")
-    return ropes[0]
+    if matrix is not None and "rope" in t:
+        raise ConfigError(f"{path}.rope", "give matrix or rope, not both")
+    nodes = read_node_ropes(f, matrices=[matrix] if matrix else None, scale=scale, field=f"{path}.file",
+                            choose='name the one for this rod with matrix = "A"')
+    if "rope" in t:
+        rope = t["rope"]
+        if isinstance(rope, str):
+            if rope not in nodes.names:
+                raise ConfigError(f"{path}.rope", f"{str(f)!r} has no rope {rope!r}; {nodes.describe()}")
+            return nodes.ropes[nodes.names.index(rope)]
+        k = as_integer(rope, f"{path}.rope", minimum=0)
+        if k >= len(nodes.ropes):
+            raise ConfigError(f"{path}.rope", f"rope = {k} is out of range: {nodes.describe()}")
+        return nodes.ropes[k]
+    if len(nodes.ropes) != 1:
+        raise ConfigError(f"{path}.file", f"{nodes.describe()}; pick the one for this rod with rope = NAME or "
+                                          "INDEX (one [[rods]] table per rope)")
+    return nodes.ropes[0]
 
 
 def _knot_positions(t: dict, path: str, radius: float) -> tuple[np.ndarray, dict]:
