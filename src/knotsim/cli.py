@@ -64,7 +64,7 @@ def run(config: Path | None, outdir: Path | None, overwrite: bool, from_dir: Pat
         quiet: bool):
     """Run the simulation described by CONFIG (a run file, see docs/run-files.md), or continue --from DIR."""
     from knotsim.errors import ConfigError
-    from knotsim.runspec import RunSpec, build_run
+    from knotsim.runspec import RunSpec, build_run, check_run
 
     if config is None:
         if from_dir is None:
@@ -76,9 +76,10 @@ def run(config: Path | None, outdir: Path | None, overwrite: bool, from_dir: Pat
         raise ConfigError("output", f"continue into a new directory: -o {outdir} is the --from run itself")
     default = default_dir(f"{from_dir.name}-continued") if from_dir is not None else default_dir(config.stem)
     spec = RunSpec.load(config)
+    cfg = check_run(spec, duration=duration)  # input errors first, alone: before any note
     outdir = prepare_output(outdir, default, overwrite)
     announce_compile(contact=bool(spec.data.get("contact")), topology=False)
-    sim, cfg = build_run(spec, duration=duration, continue_from=from_dir)
+    sim, cfg = build_run(cfg, continue_from=from_dir)
     wall0 = time.perf_counter()
     try:
         log = sim.run(cfg.duration, output_dir=outdir, output_interval=cfg.output_interval,

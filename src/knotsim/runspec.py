@@ -86,9 +86,21 @@ class RunSpec:
         return RunSpec(data, self.base_dir)
 
 
-def build_run(spec: RunSpec | dict | str | os.PathLike, *, duration: float | None = None,
-              continue_from: str | os.PathLike | None = None):
-    """A :class:`~knotsim.simulation.Simulation` ready to run ``spec``, and the checked
+def check_run(spec: RunSpec | dict | str | os.PathLike, *, duration: float | None = None):
+    """The checked :class:`~knotsim.io.config.RunConfig` of ``spec``: every table and value
+    validated (a :class:`~knotsim.errors.ConfigError` naming the field otherwise), nothing built
+    or compiled yet. ``duration`` (s) overrides ``run.duration``."""
+    from knotsim.io.config import load_config
+
+    rs = RunSpec.coerce(spec)
+    cfg = load_config(rs.data, base_dir=rs.base_dir, duration=duration)
+    cfg.raw = RunSpec(cfg.raw, rs.base_dir).to_dict()
+    return cfg
+
+
+def build_run(spec, *, duration: float | None = None, continue_from: str | os.PathLike | None = None):
+    """A :class:`~knotsim.simulation.Simulation` ready to run ``spec`` (a :class:`RunSpec`, a dict, a
+    run file, or a :class:`~knotsim.io.config.RunConfig` from :func:`check_run`), and the checked
     :class:`~knotsim.io.config.RunConfig`: ``(sim, config)``.
 
     ``duration`` (s) overrides ``run.duration``. ``continue_from`` is an earlier run's output
@@ -98,11 +110,9 @@ def build_run(spec: RunSpec | dict | str | os.PathLike, *, duration: float | Non
     capture theirs when they first act.
     """
     from knotsim.io.checkpoint import read_checkpoint
-    from knotsim.io.config import build_simulation, load_config
+    from knotsim.io.config import RunConfig, build_simulation
 
-    rs = RunSpec.coerce(spec)
-    cfg = load_config(rs.data, base_dir=rs.base_dir, duration=duration)
-    cfg.raw = RunSpec(cfg.raw, rs.base_dir).to_dict()
+    cfg = spec if isinstance(spec, RunConfig) else check_run(spec, duration=duration)
     sim = build_simulation(cfg)
     if continue_from is None:
         for inter in sim.stepper.interactions:
