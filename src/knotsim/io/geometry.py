@@ -132,8 +132,11 @@ def read_node_ropes(path: str | os.PathLike, *, matrices: list[str] | None = Non
     except NotImplementedError as exc:  # scipy: MATLAB v7.3 (HDF5) files
         raise ConfigError(field, f"could not read {str(f)!r}: {exc}; save it as a v7 file "
                                  "(MATLAB: save(F, ..., '-v7'))") from None
-    except (OSError, ValueError) as exc:
-        raise ConfigError(field, f"could not read {str(f)!r}: {exc}") from None
+    except Exception as exc:  # noqa: BLE001 - a foreign file can fail in any reader (EOF, zip, pickle, struct, ...)
+        what = " ".join(str(exc).split()) or type(exc).__name__  # one line, whatever the reader said
+        if not isinstance(exc, OSError | ValueError):
+            what = f"{type(exc).__name__}: {what}"
+        raise ConfigError(field, f"could not read {str(f)!r} as a {suffix or 'text'} node file: {what}") from None
     out = [_check_rope(arr, f, name, scale, field) for name, arr in zip(names, ropes, strict=True)]
     return NodeRopes(list(names), out, str(f), found)
 
