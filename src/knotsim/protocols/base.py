@@ -287,6 +287,10 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
                                         "continuing it with another radius is not the same rope")
     _check_fit(proto, geo)
     _geometry_keys(params, geo)
+    counts = [len(x) for x in geo.ropes]
+    if len(set(counts)) > 1:
+        notes.append(f"the ropes have {', '.join(f'{a}: {c}' for a, c in zip(geo.rope_names, counts, strict=True))} "
+                     f"nodes; the parameter n_nodes gives rope {geo.rope_names[0]}'s")
     p = params
     rods = []
     for r, (x, rname) in enumerate(zip(geo.ropes, geo.rope_names, strict=True)):
@@ -461,7 +465,8 @@ def stage_duration(distance, speed, distance_field: str, speed_field: str) -> fl
 
 
 def end_group_nodes(node: int, n_nodes: int, count: int = 2) -> list[int]:
-    """Local node indices of the ``count`` nodes at the end of a rope where ``node`` (0 or N-1) is."""
+    """Local node indices of the ``count`` nodes at the end of a rope of ``n_nodes`` nodes (that
+    rope's own count) where ``node`` (0 or N-1) is: ``[0, 1]`` or ``[-2, -1]``."""
     if node == 0:
         return list(range(count))
     if node == n_nodes - 1:

@@ -251,3 +251,32 @@ def parse_end(text, geo: ProtocolGeometry, field: str) -> EndRef:
     if node not in (0, n - 1):
         raise ConfigError(field, f"node {node_s} is not an end of rope {rope} (0 or -1)")
     return EndRef(rope, node)
+
+
+def other_end(geo: ProtocolGeometry, end: EndRef) -> EndRef:
+    """The far end of the rope of ``end``."""
+    n = len(geo.ropes[end.rope])
+    return EndRef(end.rope, n - 1 if end.node == 0 else 0)
+
+
+def one_rope_ends(geo: ProtocolGeometry, held_end: str, pulled_end: str) -> tuple[EndRef, EndRef, bool]:
+    """The two loaded ends of a one-rope protocol: ``(start, pulled, held)``.
+
+    Default (both texts empty): the two ends of rope 0 are pulled apart, ``start`` its first node,
+    ``pulled`` its last, ``held`` false. With ``held_end`` and/or ``pulled_end`` (``"ROPE:NODE"``,
+    :func:`parse_end`) that end is held still (clamped) and the other pulled (``held`` true); the end
+    not given is the far end of the same rope. Raises :class:`ConfigError` (field ``held_end`` /
+    ``pulled_end``) for a bad end or when both name the same end."""
+    if not held_end and not pulled_end:
+        return EndRef(0, 0), EndRef(0, len(geo.ropes[0]) - 1), False
+    held = parse_end(held_end, geo, "held_end") if held_end else None
+    pulled = parse_end(pulled_end, geo, "pulled_end") if pulled_end else None
+    held = held if held is not None else other_end(geo, pulled)
+    pulled = pulled if pulled is not None else other_end(geo, held)
+    if held == pulled:
+        raise ConfigError("pulled_end", f"the held and the pulled end are the same node ({pulled_end!r}); "
+                                        "give the two ends of the rope")
+    if held.rope != pulled.rope:
+        raise ConfigError("pulled_end", f"held_end {held_end!r} and pulled_end {pulled_end!r} are on different ropes; "
+                                        "a one-rope protocol holds one end of the rope and pulls the other")
+    return held, pulled, True

@@ -5,13 +5,16 @@ One rod (``L = 1 m``, ``N = 301``, ``h = 1.6 mm``, ``rho = 1180 kg/m^3``, ``E = 
 Poisson 0.5, ``eta = 0.01 Pa s``, ``mu = 0.1``, ``dt = 0.5 ms``) tied as a loose overhand knot
 ``overhand_n1`` ... ``overhand_n4``. The two end nodes at each end (and the angle of the edge
 between them) are clamped and moved apart along the initial end-to-end axis at ``pull_speed``
-(6 mm/s) each. The run lasts until the shortening ``e`` reaches ``e_final`` (0.25 m) unless
-``duration`` is given.
+(6 mm/s) each. With ``held_end`` / ``pulled_end`` (``"ROPE:NODE"``) one end is instead held still
+(group ``held``) and the other pulled at ``pull_speed`` (group ``pull_end``), so ``e`` shrinks at
+``pull_speed`` instead of twice that. The run lasts until the shortening ``e`` reaches ``e_final``
+(0.25 m) unless ``duration`` is given.
 
 Per-step log columns:
 
-- ``F`` (N): axial reaction on the clamped nodes of the last end (``pull_end``; positive in
-  tension); ``F_start`` (N): the same at the first end;
+- ``F`` (N): axial reaction on the clamped nodes of the pulled end (``pull_end``: the last node's
+  end unless ``pulled_end`` says otherwise; positive in tension); ``F_start`` (N): the same at the
+  other end (``pull_start``, or ``held``);
 - ``F_norm = F h^2 / EI``;
 - ``end_to_end`` (m) = ``|x_{N-1} - x_0|``; ``e = L - end_to_end`` (m); ``R = e / 2 pi`` (m);
   ``sqrt_h_over_R = sqrt(h / R)``.
@@ -28,7 +31,8 @@ import math
 
 import numpy as np
 
-from knotsim.protocols.base import LoadingProtocol, RunContext, unit
+from knotsim.protocols.base import LoadingProtocol, RunContext, end_group_nodes, unit
+from knotsim.protocols.geometry import one_rope_ends
 from knotsim.protocols.metrics import force_at, moving_average, slip_onset, window_mean, window_peak
 
 
@@ -56,6 +60,8 @@ class OverhandPull(LoadingProtocol):
         "dt": 5e-4,
         "pull_speed": 6e-3,   # m/s per end
         "e_final": 0.25,      # m, end of the pull (when duration is None)
+        "held_end": "",       # "ROPE:NODE" held still ("": both ends pulled apart)
+        "pulled_end": "",     # "ROPE:NODE" pulled and measured ("": the last node's end)
         "output_interval": 0.25,
     }
     fixed_geometry = ("n_nodes", "radius", "length")
@@ -63,19 +69,27 @@ class OverhandPull(LoadingProtocol):
 
     def setup(self, ctx: RunContext) -> None:
         x = ctx.geometry.ropes[0]
-        axis = unit(x[-1] - x[0])
+        start, end, held = one_rope_ends(ctx.geometry, ctx.params["held_end"], ctx.params["pulled_end"])
+        axis = unit(x[end.node] - x[start.node])
         v = float(ctx.params["pull_speed"])
         ctx.data["axis"] = axis
         ctx.data["e0"] = ctx.length - float(np.linalg.norm(x[-1] - x[0]))
+        ctx.data["start_group"] = "held" if held else "pull_start"
+        ctx.data["separation_speed"] = v if held else 2.0 * v  # m/s, rate at which e shrinks
         ramp = float(ctx.params["ramp_time"]) or None
-        ctx.add_bc("move", "pull_start", rod=0, nodes=[0, 1], velocity=list(-v * axis), ramp_time=ramp)
-        ctx.add_bc("move", "pull_end", rod=0, nodes=[-2, -1], velocity=list(v * axis), ramp_time=ramp)
+        n = len(x)
+        if held:
+            ctx.add_bc("clamp", "held", rod=0, nodes=end_group_nodes(start.node, n))
+        else:
+            ctx.add_bc("move", "pull_start", rod=0, nodes=end_group_nodes(start.node, n), velocity=list(-v * axis),
+                       ramp_time=ramp)
+        ctx.add_bc("move", "pull_end", rod=0, nodes=end_group_nodes(end.node, n), velocity=list(v * axis),
+                   ramp_time=ramp)
 
     def duration(self, ctx: RunContext) -> float:
         e0 = ctx.data["e0"]
         ef = float(ctx.params["e_final"])
-        v = float(ctx.params["pull_speed"])
-        return max(e0 - ef, 0.01 * ctx.length) / (2.0 * v)
+        return max(e0 - ef, 0.01 * ctx.length) / float(ctx.data["separation_speed"])
 
     def record(self, ctx: RunContext, q, t, reactions) -> dict:
         m = ctx.model
@@ -85,7 +99,7 @@ class OverhandPull(LoadingProtocol):
         ee = float(np.linalg.norm(x1 - x0))
         e = ctx.length - ee
         f_end = float(np.dot(reactions["pull_end"][:3], axis))
-        f_start = -float(np.dot(reactions["pull_start"][:3], axis))
+        f_start = -float(np.dot(reactions[ctx.data["start_group"]][:3], axis))
         R = e / (2.0 * math.pi)
         return {"F": f_end, "F_start": f_start, "F_norm": f_end * ctx.radius**2 / ctx.EI,
                 "end_to_end": ee, "e": e, "R": R,

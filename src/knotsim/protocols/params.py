@@ -71,8 +71,10 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
                                "F h^2/EI after the transient never exceeds 1/(4 r^2) + drag (r = 2: 0.0625)"),
     "loose_factor": ("-", "single-rod bend: metric 'tightened' = rope in the knot <= this x ideal ropelength (reported only)"),
     "mode": ("text", "two-rope bend: 'displacement' (pull at pull_speed) or 'force' (ramp at force_rate)"),
-    "held_end": ("text", "two-rope bend: held end as ROPE:NODE (empty: the knot's hint)"),
-    "pulled_end": ("text", "two-rope bend: pulled end as ROPE:NODE (empty: the knot's hint)"),
+    "held_end": ("text", "the end held still, ROPE:NODE (rope index or name, node 0 or -1; empty: two-rope bend the "
+                         "knot's hint, one rope both ends pulled apart; given: that end held, the other pulled)"),
+    "pulled_end": ("text", "the pulled end whose force is measured, ROPE:NODE (empty: two-rope bend the knot's hint, "
+                           "one rope both ends pulled apart; given: that end pulled, the rope's other end held)"),
     "pull_length": ("m", "two-rope bend, displacement mode: distance pulled when no duration is given"),
     "pre_tighten": ("m", "two-rope bend: distance each of the four ends moves outwards first (0: none)"),
     "pre_tighten_speed": ("m/s", "two-rope bend: speed per end during the cinching stage"),

@@ -6,7 +6,8 @@ One rod (``E = 0.18 MPa``, ``h = 2 mm``, ``L = 1 m``, ``rho = 1180 kg/m^3``, ``N
 ``end_twist = "clamped"``, the default, their edge angle; ``"free"`` lets the end edges twist: the
 report does not say) are clamped and moved apart along the initial end-to-end axis (horizontal in the drawing) at
 ``pull_speed`` per end (10 mm/s: the printed 10 cm/s cannot be right for 17 s of pulling a 1 m
-rod). The node given by the knot's ``held`` hint (the bottom of the first overhand) is held static
+rod). With ``held_end`` / ``pulled_end`` (``"ROPE:NODE"``) one end is held still instead (group
+``held``, clamped) and the other pulled at ``pull_speed`` (group ``pull_end``). The node given by the knot's ``held`` hint (the bottom of the first overhand) is held static
 (:meth:`~knotsim.bc.BoundaryConditions.hold`, positions only) for ``hold_time`` s (default
 ``None``: the whole run; 0: no hold), which stops the first overhand from inverting. The report
 does not say how much of the loop its hold grips: ``hold_nodes`` (odd, default 1) holds that many
@@ -61,7 +62,8 @@ import math
 import numpy as np
 
 from knotsim.errors import ConfigError
-from knotsim.protocols.base import LoadingProtocol, RunContext, stage_duration, unit
+from knotsim.protocols.base import LoadingProtocol, RunContext, end_group_nodes, stage_duration, unit
+from knotsim.protocols.geometry import one_rope_ends
 from knotsim.protocols.metrics import ideal_ropelength, moving_average, slip_onset, window_mean, window_peak
 
 #: Times (s) at which F h^2/EI was read off the published figure.
@@ -83,12 +85,13 @@ def free_rope_level(params, EI: float, radius: float, length: float) -> float:
     return bend + drag * radius**2 / EI
 
 
-def pre_pull_time(params) -> float:
-    """Duration (s) of the pre-tightening: ``pre_pull / (2 pre_pull_speed)`` (0 when off; the speed
-    defaults to ``pull_speed``; see :func:`~knotsim.protocols.base.stage_duration` for the errors)."""
+def pre_pull_time(params, moving_ends: int = 2) -> float:
+    """Duration (s) of the pre-tightening: ``pre_pull / (moving_ends pre_pull_speed)`` (both ends
+    move by default, 1 when one end is held; 0 when off; the speed defaults to ``pull_speed``; see
+    :func:`~knotsim.protocols.base.stage_duration` for the errors)."""
     v = params["pre_pull_speed"]
     v = params["pull_speed"] if v is None else v
-    return 0.5 * stage_duration(params["pre_pull"], v, "pre_pull", "pre_pull_speed")
+    return stage_duration(params["pre_pull"], v, "pre_pull", "pre_pull_speed") / moving_ends
 
 
 class SingleRodBend(LoadingProtocol):
@@ -111,6 +114,8 @@ class SingleRodBend(LoadingProtocol):
         "pre_pull": 0.0,        # m, end-to-end separation added before the measured pull (0: none)
         "pre_pull_speed": None,  # m/s per end during the pre-tightening (None: pull_speed)
         "end_twist": "clamped",  # "clamped": the pulled end edges keep their angle; "free": they may twist
+        "held_end": "",         # "ROPE:NODE" held still ("": both ends pulled apart)
+        "pulled_end": "",       # "ROPE:NODE" pulled ("": the last node's end)
         "transient": 1.0,       # s of the pull left out of the peak (start-up ringing of the abrupt start)
         "loose_bend_radius": 2.0,  # h; loose: F_norm after the transient never above the free-rope level
         "loose_factor": 3.0,    # reported only: 'tightened' = rope in the knot <= loose_factor x ideal ropelength
@@ -121,35 +126,43 @@ class SingleRodBend(LoadingProtocol):
 
     def setup(self, ctx: RunContext) -> None:
         x = ctx.geometry.ropes[0]
-        axis = unit(x[-1] - x[0])
+        n = len(x)
+        start, end, held_end = one_rope_ends(ctx.geometry, ctx.params["held_end"], ctx.params["pulled_end"])
+        axis = unit(x[end.node] - x[start.node])
+        start_nodes, end_nodes = end_group_nodes(start.node, n), end_group_nodes(end.node, n)
+        ctx.data["start_group"] = "held" if held_end else "pull_start"
         twist = ctx.params["end_twist"]
         if twist not in ("clamped", "free"):
             raise ConfigError("end_twist", f"must be 'clamped' or 'free', got {twist!r}")
         twist = twist == "clamped"
         ctx.data["axis"] = axis
         v = float(ctx.params["pull_speed"])
-        t_pre = pre_pull_time(ctx.params)
+        t_pre = pre_pull_time(ctx.params, 1 if held_end else 2)
         ctx.data["t_pre"] = t_pre
+        if held_end:
+            ctx.add_bc("clamp", "held", rod=0, nodes=start_nodes, twist=twist)
         if t_pre > 0:
             if float(ctx.params["ramp_time"]) > 0:
                 raise ConfigError("ramp_time", "a smooth start goes with the plain pull; with pre_pull the ends "
                                                "already move when the measured pull starts")
             v_pre = float(ctx.params["pre_pull_speed"] or v)
             # each end: pre-tightening at v_pre for t_pre, then the measured pull at v
-            for gname, nodes, sign in (("pull_start", [0, 1], -1.0), ("pull_end", [-2, -1], 1.0)):
+            moving = [("pull_end", end_nodes, 1.0)] if held_end else [("pull_start", start_nodes, -1.0),
+                                                                      ("pull_end", end_nodes, 1.0)]
+            for gname, nodes, sign in moving:
                 ctx.add_bc("move", gname, rod=0, nodes=nodes, twist=twist, waypoints={
                     "times": [0.0, t_pre], "points": [[0.0, 0.0, 0.0], list(sign * v_pre * t_pre * axis)],
                     "then_velocity": list(sign * v * axis)})
         else:
             ramp = float(ctx.params["ramp_time"]) or None
-            ctx.add_bc("move", "pull_start", rod=0, nodes=[0, 1], velocity=list(-v * axis), twist=twist,
-                       ramp_time=ramp)
-            ctx.add_bc("move", "pull_end", rod=0, nodes=[-2, -1], velocity=list(v * axis), twist=twist,
+            if not held_end:
+                ctx.add_bc("move", "pull_start", rod=0, nodes=start_nodes, velocity=list(-v * axis), twist=twist,
+                           ramp_time=ramp)
+            ctx.add_bc("move", "pull_end", rod=0, nodes=end_nodes, velocity=list(v * axis), twist=twist,
                        ramp_time=ramp)
         width = ctx.params["hold_nodes"]
         if not (isinstance(width, int) and width >= 1 and width % 2 == 1):
             raise ConfigError("hold_nodes", f"must be an odd number of nodes >= 1, got {width!r}")
-        n = len(x)
         held = sorted({min(max(h.node + k, 2), n - 3) for h in ctx.geometry.held if h.rope == 0
                        for k in range(-(width // 2), width // 2 + 1)})
         ht = ctx.params["hold_time"]
@@ -167,7 +180,7 @@ class SingleRodBend(LoadingProtocol):
         x0 = q[m.node_dof[0]:m.node_dof[0] + 3]
         x1 = q[m.node_dof[-1]:m.node_dof[-1] + 3]
         f_end = float(np.dot(reactions["pull_end"][:3], axis))
-        f_start = -float(np.dot(reactions["pull_start"][:3], axis))
+        f_start = -float(np.dot(reactions[ctx.data["start_group"]][:3], axis))
         f = 0.5 * (f_start + f_end)
         x = m.node_positions(q)
         contour = float(np.sum(np.linalg.norm(np.diff(x, axis=0), axis=1)))

@@ -339,14 +339,14 @@ class TwoRopeBend(LoadingProtocol):
         held, pulled = held_list[0], pulled_list[0]
         if held.rope == pulled.rope:
             raise ConfigError("knot", "the held and pulled ends must be on different ropes")
-        n = len(geo.ropes[0])
         xa = geo.ropes[held.rope][held.node]
         xb = geo.ropes[pulled.rope][pulled.node]
         axis = unit(xb - xa)
         ctx.data.update(axis=axis, held=held, pulled=pulled,
                         held_end=0 if held.node == 0 else 1, pulled_end=0 if pulled.node == 0 else 1)
-        pull_nodes = end_group_nodes(pulled.node, n)
-        held_nodes = end_group_nodes(held.node, n)
+        # each group sized by its own rope's node count (the ropes may differ in length and resolution)
+        pull_nodes = end_group_nodes(pulled.node, len(geo.ropes[pulled.rope]))
+        held_nodes = end_group_nodes(held.node, len(geo.ropes[held.rope]))
         t_pre = pre_tighten_time(ctx.params)
         ctx.data["t_pre"] = t_pre
         if t_pre > 0:
@@ -370,6 +370,7 @@ class TwoRopeBend(LoadingProtocol):
             d_pull = outward(pulled.rope, pulled.node)
             ctx.add_bc("move", "held", rod=held.rope, nodes=held_nodes, waypoints=pre(d_held))
             for name, (rope, end) in zip(("tail_a", "tail_b"), free_tail_ends(held, pulled), strict=True):
+                n = len(geo.ropes[rope])
                 node = 0 if end == 0 else n - 1
                 ctx.add_bc("move", f"pre_{name}", rod=rope, nodes=end_group_nodes(node, n),
                            waypoints=pre(outward(rope, node)), stop=t_pre)
