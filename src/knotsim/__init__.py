@@ -9,7 +9,8 @@ how strong they are.
     contact = ks.Contact(model, ks.ContactOptions(mu=0.3))
     log = ks.Simulation(model, bcs, ks.SolverOptions(dt=2.5e-3), interactions=[contact]).run(2.0)
 
-    summary = ks.run_protocol("overhand-pull", knot="overhand_n1", quick=True)   # knot strength
+    result = ks.run_protocol("overhand-pull", knot="overhand_n1", quick=True)    # knot strength
+    result["outcome"], result.metrics, result.log                               # summary and log
     result = ks.run(ks.RunSpec.load("examples/hanging_rod.toml"), "out")        # a run file
 
 Names are loaded on first use, so that ``import knotsim`` stays fast. Input bundles are called
@@ -59,6 +60,7 @@ _LAZY = {
     "tie_from_straight": "knotsim.knots.tying", "list_tying_sequences": "knotsim.knots.tying",
     # protocols and studies
     "run_protocol": "knotsim.protocols", "build_protocol_run": "knotsim.protocols",
+    "ProtocolResult": "knotsim.protocols",
     "run_study": "knotsim.study", "load_study": "knotsim.study", "write_report": "knotsim.study",
 }
 

@@ -1,8 +1,9 @@
 """Loading protocols (knot tightening and strength tests) and strength metrics.
 
 >>> from knotsim.protocols import run_protocol
->>> summary = run_protocol("overhand-pull", knot="overhand_n2", out_dir="runs/n2",
-...                        overrides={"mu": 0.1, "dt": 1e-3})
+>>> result = run_protocol("overhand-pull", knot="overhand_n2", out_dir="runs/n2",
+...                       overrides={"mu": 0.1, "dt": 1e-3})
+>>> result["outcome"], result.metrics["F_norm_peak"], result.log["F_norm"]
 
 Protocols (see each module for the published set-up it reproduces):
 
@@ -11,16 +12,17 @@ Protocols (see each module for the published set-up it reproduces):
 - ``two-rope-bend`` (:mod:`~knotsim.protocols.two_rope_bend`): reef/granny/thief/grief bends.
 
 Every run can be given any starting geometry (``geometry=``: a node file or an earlier run's
-directory) and is a run description plus metrics (:func:`build_protocol_run`). Every run writes ``summary.json`` (parameters, metrics, outcome, wall time, worst penetration,
-contact statistics) next to ``trajectory.h5`` / ``log.parquet`` / ``run.json`` when ``out_dir`` is
-given. Metrics are pure functions of the log: :mod:`knotsim.protocols.metrics`.
+directory) and is a run description plus metrics (:func:`build_protocol_run`). Every run returns a :class:`ProtocolResult` (the summary: parameters, metrics, outcome, wall time,
+worst penetration, contact statistics; and the per-step log) and writes it as ``summary.json``
+next to ``trajectory.h5`` / ``log.parquet`` / ``run.json`` when ``out_dir`` is given. Metrics are pure functions of the log: :mod:`knotsim.protocols.metrics`.
 """
 
 import importlib
 
 # Names load on first use (PEP 562), so that ``knotsim.protocols.cli`` (imported by ``knotsim --help``)
 # does not pull in pandas, scipy and the protocol modules.
-_LAZY = {"LoadingProtocol": "base", "RunContext": "base", "build_protocol_run": "base", "run_protocol": "base",
+_LAZY = {"LoadingProtocol": "base", "ProtocolResult": "base", "RunContext": "base", "build_protocol_run": "base",
+         "run_protocol": "base",
          "COMMON_DEFAULTS": "params", "parse_assignments": "params", "resolve_params": "params",
          "default_protocol": "registry", "get_protocol": "registry", "protocols": "registry"}
 
@@ -33,6 +35,7 @@ def __getattr__(name):
 __all__ = [
     "COMMON_DEFAULTS",
     "LoadingProtocol",
+    "ProtocolResult",
     "RunContext",
     "build_protocol_run",
     "default_protocol",

@@ -29,7 +29,8 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -41,7 +42,64 @@ from knotsim.contact.options import ContactOptions
 from knotsim.errors import ConfigError, SimulationError
 from knotsim.protocols.params import COMMON_DEFAULTS, Params, resolve_params
 
-__all__ = ["LoadingProtocol", "RunContext", "build_protocol_run", "run_protocol"]
+__all__ = ["LoadingProtocol", "ProtocolResult", "RunContext", "build_protocol_run", "run_protocol"]
+
+
+@dataclass(eq=False)
+class ProtocolResult(Mapping):
+    """What :func:`run_protocol` returns: the run's summary and its per-step log.
+
+    The summary entries (those of ``summary.json``, see ``docs/protocols.md``) are attributes and,
+    read-only, items: ``result.outcome == result["outcome"]``, ``result.get("metrics")``,
+    ``dict(result)``; :meth:`to_dict` gives them as a JSON-ready dict. ``log`` is the per-step log
+    (:class:`pandas.DataFrame`, one row per accepted step: ``time`` in s, the reactions of every
+    boundary-condition group, contact statistics and the protocol's own columns, e.g. ``F`` in N and
+    ``F_norm`` = F h^2/EI), in memory whether or not ``out_dir`` was given (with ``out_dir`` it is
+    also ``log.parquet``). It is not a summary entry.
+    """
+
+    protocol: str
+    knot: str
+    knot_kind: str
+    geometry: str
+    parameters: dict
+    friction_model: str
+    EI: float  # N m^2
+    metrics: dict
+    outcome: str
+    knot_status: str
+    run_status: str
+    topology: dict
+    contact: dict
+    wall_time: float  # s
+    sim_time: float  # s
+    n_steps: int
+    newton_iterations: int
+    failed_attempts: int
+    notes: list
+    knotsim_version: str
+    out_dir: str | None
+    log: pd.DataFrame = field(default_factory=pd.DataFrame, repr=False)
+
+    @classmethod
+    def summary_keys(cls) -> tuple[str, ...]:
+        """Names of the summary entries (every field but ``log``), in ``summary.json``'s order."""
+        return tuple(f.name for f in fields(cls) if f.name != "log")
+
+    def __getitem__(self, key: str) -> Any:
+        if key not in self.summary_keys():
+            raise KeyError(key)
+        return getattr(self, key)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.summary_keys())
+
+    def __len__(self) -> int:
+        return len(self.summary_keys())
+
+    def to_dict(self) -> dict[str, Any]:
+        """The summary as a plain dict (the content of ``summary.json``)."""
+        return {k: getattr(self, k) for k in self.summary_keys()}
 
 
 @dataclass
@@ -334,8 +392,8 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
 
 def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: dict | None = None,
                  progress: bool = False, quick: bool = False, geometry: str | None = None,
-                 save_config=None) -> dict:
-    """Run loading protocol ``name`` on ``knot`` (or on ``geometry``) and return its summary.
+                 save_config=None) -> ProtocolResult:
+    """Run loading protocol ``name`` on ``knot`` (or on ``geometry``) and return its summary and log.
 
     Parameters
     ----------
@@ -361,10 +419,12 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
 
     Returns
     -------
-    dict with ``protocol``, ``knot``, ``parameters``, ``friction_model`` (``"surface"`` or
-    ``"centreline"``, the law that ran), ``metrics``, ``outcome``, ``run_status``,
-    ``topology`` (start/end), ``contact`` (statistics incl. ``worst_penetration_ratio``), ``wall_time``
-    (s), ``sim_time`` (s), ``n_steps``, ``failed_attempts``, ``notes``.
+    :class:`ProtocolResult`: the summary entries ``protocol``, ``knot``, ``parameters``,
+    ``friction_model`` (``"surface"`` or ``"centreline"``, the law that ran), ``metrics``,
+    ``outcome``, ``run_status``, ``topology`` (start/end), ``contact`` (statistics incl.
+    ``worst_penetration_ratio``), ``wall_time`` (s), ``sim_time`` (s), ``n_steps``,
+    ``failed_attempts``, ``notes``, ... (as attributes and as ``result["outcome"]``) and ``log``,
+    the per-step log (a DataFrame, also when nothing is written).
     """
     from knotsim.protocols.metrics import knot_status
     from knotsim.runspec import build_run
@@ -439,7 +499,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     summary = json_safe(summary)
     if out is not None:
         write_json(out / "summary.json", summary)
-    return summary
+    return ProtocolResult(**summary, log=log)
 
 
 # ------------------------------------------------------------------------------------------ helpers

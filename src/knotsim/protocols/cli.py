@@ -189,7 +189,7 @@ def pull(knot: str | None, geometry: Path | None, matrices: str | None, protocol
                      geometry=str(geometry) if geometry is not None else None, save_config=save_config)
     drawn = _figures(outdir) if figures and s["n_steps"] else []
     if as_json:
-        click.echo(json.dumps(s))
+        click.echo(json.dumps(s.to_dict()))
     else:
         _print_summary(s, protocol, quick, outdir)
         if save_config is not None:

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import importlib
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from knotsim.errors import ConfigError
@@ -134,7 +134,7 @@ def protocol_executor(config: dict, out_dir: Path, base_dir: Path) -> dict:
     if config.get("quick"):
         kwargs["quick"] = True
     summary = run_protocol(name, **kwargs)
-    if not isinstance(summary, dict):
+    if not isinstance(summary, Mapping):  # a ProtocolResult (or a plain dict)
         return {}
     out = flatten_metrics(summary.get("metrics") or {})
     rest = {k: v for k, v in summary.items() if k not in _SKIP_SUMMARY}
