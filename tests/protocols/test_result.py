@@ -29,8 +29,14 @@ def test_result_carries_the_log_in_memory_when_nothing_is_written(tmp_path, monk
         r["log"]
     d = r.to_dict()
     assert list(d) == list(r) == list(ProtocolResult.summary_keys()) and dict(r) == d
-    json.dumps(d)
-    assert r == d  # compares as the summary mapping
+    assert json.loads(json.dumps(r)) == json.loads(json.dumps(d))  # JSON-ready as the plain dict was
+    assert r == d and type(d) is dict
+    # callers may add their own entries, as to the plain dict of earlier versions
+    r["wall_time"] = 1.0
+    r["_log"] = r.log
+    assert r.wall_time == 1.0 and r["_log"] is r.log
+    with pytest.raises(AttributeError):
+        getattr(r, "no_such_entry")  # noqa: B009
 
 
 def test_result_log_is_the_written_log(tmp_path):
@@ -44,8 +50,8 @@ def test_study_executor_reads_a_result(tmp_path, monkeypatch):
     import knotsim.protocols as P
 
     keys = ProtocolResult.summary_keys()
-    fake = ProtocolResult(**{k: None for k in keys} | {"metrics": {"F_norm_peak": 0.5}, "outcome": "held",
-                                                         "wall_time": 1.0, "protocol": "overhand-pull"})
+    fake = ProtocolResult({k: None for k in keys} | {"metrics": {"F_norm_peak": 0.5}, "outcome": "held",
+                                                       "wall_time": 1.0, "protocol": "overhand-pull"})
     monkeypatch.setattr(P, "run_protocol", lambda name, **kw: fake)
     row = protocol_executor({"protocol": "overhand-pull", "knot": "overhand_n1"}, tmp_path, tmp_path)
     assert row["F_norm_peak"] == 0.5 and row["protocol_outcome"] == "held" and row["protocol_wall_time"] == 1.0

@@ -29,8 +29,8 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field, fields
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -42,64 +42,51 @@ from knotsim.contact.options import ContactOptions
 from knotsim.errors import ConfigError, SimulationError
 from knotsim.protocols.params import COMMON_DEFAULTS, Params, resolve_params
 
-__all__ = ["LoadingProtocol", "ProtocolResult", "RunContext", "build_protocol_run", "run_protocol"]
+__all__ = ["SUMMARY_KEYS", "LoadingProtocol", "ProtocolResult", "RunContext", "build_protocol_run",
+           "run_protocol"]
 
 
-@dataclass(eq=False)
-class ProtocolResult(Mapping):
+#: The summary entries of a protocol run, in ``summary.json``'s order (``docs/protocols.md``).
+SUMMARY_KEYS = ("protocol", "knot", "knot_kind", "geometry", "parameters", "friction_model", "EI", "metrics",
+                "outcome", "knot_status", "run_status", "topology", "contact", "wall_time", "sim_time", "n_steps",
+                "newton_iterations", "failed_attempts", "notes", "knotsim_version", "out_dir")
+
+
+class ProtocolResult(dict):
     """What :func:`run_protocol` returns: the run's summary and its per-step log.
 
-    The summary entries (those of ``summary.json``, see ``docs/protocols.md``) are attributes and,
-    read-only, items: ``result.outcome == result["outcome"]``, ``result.get("metrics")``,
-    ``dict(result)``; :meth:`to_dict` gives them as a JSON-ready dict. ``log`` is the per-step log
+    A dict of the summary entries (those of ``summary.json``: ``protocol``, ``knot``, ``parameters``,
+    ``metrics``, ``outcome``, ``run_status``, ``topology``, ``contact``, ``EI`` in N m^2,
+    ``wall_time`` and ``sim_time`` in s, ``n_steps``, ..., see :data:`SUMMARY_KEYS` and
+    ``docs/protocols.md``), so ``result["outcome"]``, ``json.dumps(result)`` and item assignment work
+    as on the plain dict of earlier versions; the entries are also attributes
+    (``result.outcome``, ``result.metrics``). ``log`` is an attribute, not an entry: the per-step log
     (:class:`pandas.DataFrame`, one row per accepted step: ``time`` in s, the reactions of every
     boundary-condition group, contact statistics and the protocol's own columns, e.g. ``F`` in N and
     ``F_norm`` = F h^2/EI), in memory whether or not ``out_dir`` was given (with ``out_dir`` it is
-    also ``log.parquet``). It is not a summary entry.
+    also ``log.parquet``).
     """
 
-    protocol: str
-    knot: str
-    knot_kind: str
-    geometry: str
-    parameters: dict
-    friction_model: str
-    EI: float  # N m^2
-    metrics: dict
-    outcome: str
-    knot_status: str
-    run_status: str
-    topology: dict
-    contact: dict
-    wall_time: float  # s
-    sim_time: float  # s
-    n_steps: int
-    newton_iterations: int
-    failed_attempts: int
-    notes: list
-    knotsim_version: str
-    out_dir: str | None
-    log: pd.DataFrame = field(default_factory=pd.DataFrame, repr=False)
+    def __init__(self, summary: Mapping[str, Any] = (), log: pd.DataFrame | None = None):
+        super().__init__(summary)
+        self.log = log if log is not None else pd.DataFrame()
 
-    @classmethod
-    def summary_keys(cls) -> tuple[str, ...]:
-        """Names of the summary entries (every field but ``log``), in ``summary.json``'s order."""
-        return tuple(f.name for f in fields(cls) if f.name != "log")
+    @staticmethod
+    def summary_keys() -> tuple[str, ...]:
+        """Names of the summary entries, in ``summary.json``'s order (:data:`SUMMARY_KEYS`)."""
+        return SUMMARY_KEYS
 
-    def __getitem__(self, key: str) -> Any:
-        if key not in self.summary_keys():
-            raise KeyError(key)
-        return getattr(self, key)
+    def __getattr__(self, name: str) -> Any:
+        if name in SUMMARY_KEYS and name in self:
+            return self[name]
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
-    def __iter__(self) -> Iterator[str]:
-        return iter(self.summary_keys())
-
-    def __len__(self) -> int:
-        return len(self.summary_keys())
+    def __dir__(self):
+        return sorted(set(super().__dir__()) | {k for k in SUMMARY_KEYS if k in self})
 
     def to_dict(self) -> dict[str, Any]:
-        """The summary as a plain dict (the content of ``summary.json``)."""
-        return {k: getattr(self, k) for k in self.summary_keys()}
+        """The summary as a plain dict (the content of ``summary.json``), without the log."""
+        return dict(self)
 
 
 @dataclass
@@ -499,7 +486,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     summary = json_safe(summary)
     if out is not None:
         write_json(out / "summary.json", summary)
-    return ProtocolResult(**summary, log=log)
+    return ProtocolResult(summary, log=log)
 
 
 # ------------------------------------------------------------------------------------------ helpers
