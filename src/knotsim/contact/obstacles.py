@@ -26,7 +26,12 @@ stiffness_scaler × F_max / h_min`` with ``F_max`` the largest node contact forc
 step or the force that stops the fastest approaching node within one step; ``k_c`` jumps up to the
 target and relaxes down towards it; it never drops below ``stiffness_scaler × (largest node mass ×
 1 m/s²) / h_min``. A step whose deepest penetration exceeds ``penetration_limit × h`` is rejected
-(and, adaptive, retried with ``k_c × 4``).
+(and, adaptive, retried with ``k_c × 4``), and so is a step during which a rod went through the
+obstacle and ended outside it: along the straight motion of the step (the obstacle moving from its
+pose at the start to that at the end) a node went deeper than the limit (also ``k_c × 4``), or an
+edge's centre line came within half the closest legal node distance of the core, a thin post
+between two nodes (:mod:`knotsim.contact.obstacle_swept`). The reasons name the rod, the node or
+edge within it and the time.
 
 Friction model (``friction_model``): ``"surface"`` (default) applies friction at the node's
 surface point ``x − h n``, whose velocity includes the rotation of the rod's cross-section (the
@@ -64,6 +69,7 @@ import numpy as np
 from knotsim.bc.paths import Path, as_path
 from knotsim.contact.obstacle_kernels import CAPSULE, PLANE, SPHERE, obstacle_evaluate
 from knotsim.contact.obstacle_surface_kernels import STENCIL, obstacle_surface_evaluate, spin_update
+from knotsim.contact.obstacle_swept import NODE, describe, first_pass_through, obstacle_edges
 from knotsim.errors import ConfigError, GeometryError
 
 __all__ = ["Capsule", "Obstacle", "Plane", "Sphere", "rotation_matrix"]
@@ -199,6 +205,11 @@ class Obstacle:
         self.node_mass = m.mass[m.node_dof[self.nodes]]
         self._dofs = np.ascontiguousarray(m.node_dof[self.nodes][:, None] + np.arange(3)[None, :], dtype=np.int64)
         self.h_min = float(np.min(self.node_h)) if self.nodes.size else 1.0
+        self._edges, self._edge_ids = obstacle_edges(m, self.nodes)
+        self._node_dofs = np.ascontiguousarray(m.node_dof[self.nodes])
+        self._sweep_scratch = np.zeros(self.nodes.size)
+        self._step_start = self._pose_accepted = None
+        self._still = np.zeros(3)
         self.k_floor = self.stiffness_scaler * (float(np.max(self.node_mass)) if self.nodes.size else 0.0) / self.h_min
         self.k_c = self.stiffness if self.stiffness is not None else self.k_floor
         self._fmax_accepted = 0.0
@@ -292,6 +303,7 @@ class Obstacle:
     # ------------------------------------------------------------------ Interaction protocol
     def begin_step(self, state_in, dt: float) -> None:
         """Pose at the end of the step and, adaptive, the stiffness for it."""
+        self._step_start = (state_in.time, dt, state_in.q)
         self._set_pose(state_in.time + dt, dt)
         if self.stiffness is not None or not self.nodes.size:
             return
@@ -361,7 +373,9 @@ class Obstacle:
                           False)
 
     def check(self, q) -> str | None:
-        """Reject ``q`` if a node penetrates deeper than ``penetration_limit × h``."""
+        """Reject ``q`` if a node penetrates deeper than ``penetration_limit × h``, or if a node or an
+        edge passed through the obstacle during the step (:mod:`knotsim.contact.obstacle_swept`; a
+        node's dive also raises an adaptive ``k_c``)."""
         if not self.nodes.size:
             self._stats = self._summary(q)
             return None
@@ -372,9 +386,40 @@ class Obstacle:
         if ratio[i] > self.penetration_limit:
             if self.stiffness is None:
                 self.k_c *= PENETRATION_BOOST
-            return (f"obstacle {self.name!r}: node {int(self.nodes[i])} penetrates {ratio[i]:.3g} x its radius "
-                    f"(penetration_limit {self.penetration_limit})")
-        return None
+            m = self.model
+            n = int(self.nodes[i])
+            rod = int(m.node_rod[n])
+            return (f"obstacle {self.name!r}: node {n - int(m.rod_node_start[rod])} of rod {m.rod_names[rod]!r} "
+                    f"penetrates {ratio[i]:.3g} x its radius (penetration_limit {self.penetration_limit})")
+        return self._pass_through(q)
+
+    def _pass_through(self, q) -> str | None:
+        """The swept test of the step from ``begin_step``'s state to ``q`` (the obstacle moving from
+        its pose at the step's start to that at its end); its reason, or ``None``."""
+        start = self._step_start
+        if start is None or start[2].shape != q.shape:
+            return None
+        t0, dt, q0 = start
+        w = self.omega
+        still = w[0] == 0.0 and w[1] == 0.0 and w[2] == 0.0
+        if still and self.kind == PLANE:
+            return None  # a gap to a plane that does not turn is linear along the step
+        if still and self.path is None:
+            g0, c0, dc, theta = self._geom, self._cen, self._still, self._still
+        else:
+            pose = self._pose_accepted  # the end of the last accepted step is this step's start
+            if pose is not None and pose[0] == t0:
+                g0, c0 = pose[1], pose[2]
+            else:
+                g0, c0 = np.ascontiguousarray(self.geometry(t0)), np.ascontiguousarray(self.pivot(t0))
+            dc, theta = self._cen - c0, self.omega * dt
+        code, i, s, value = first_pass_through(self.kind, g0, c0, dc, theta, q0, q, self._node_dofs, self.node_h,
+                                               self._gap, self._edges, self.penetration_limit, self._sweep_scratch)
+        if code == 0:
+            return None
+        if code == NODE and self.stiffness is None:
+            self.k_c *= PENETRATION_BOOST
+        return describe(self, code, i, s, value, t0, dt)
 
     def check_start(self, q) -> None:
         """Raise :class:`~knotsim.errors.GeometryError` when a node starts deeper inside the obstacle
@@ -415,6 +460,7 @@ class Obstacle:
         step (see the module doc); a free-spinning obstacle's spin is advanced here, once per accepted
         step, and logged at the step's end."""
         self._fmax_accepted = self._fmax_pending
+        self._pose_accepted = (self._time, self._geom, self._cen)
         out = dict(self._stats)
         if self.spin_inertia is not None:
             self._advance_spin()
