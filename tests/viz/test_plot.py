@@ -77,3 +77,20 @@ def test_plain_run_reactions_and_errors(tmp_path):
         P.plot_run(tmp_path)
     with pytest.raises(ConfigError, match="no log.parquet"):
         P.plot_run(tmp_path / "nothing")
+
+
+def test_figure_marks_the_summary_peak_in_run_time(tmp_path):
+    """The marked peak is the summary's (value and time; metric times count after settling), not
+    a maximum the figure finds itself; a settling stage is shaded and the axis scaled to the pull."""
+    s = {"protocol": "overhand-pull", "parameters": {"settle_time": 1.0, "transient": 0.5},
+         "metrics": {"F_norm_peak": 1.5, "F_norm_peak_time": 1.5}}
+    t = np.linspace(0.0, 4.0, 81)
+    y = np.where(t < 1.0, 40.0 * np.sin(20 * t), 1.0 + 0.5 * np.sin(t))
+    assert P._offset(s["metrics"], s["parameters"]) == 1.0
+    assert P._window(s, 4.0) == ("after the start-up transient", 1.5, 4.0)
+    assert t[P._peak_point(s, t, y)] == pytest.approx(2.5)
+    assert P._peak_point({**s, "metrics": {}}, t, y) is None  # no peak in the summary: none marked
+    run = _run_dir(tmp_path, "overhand-pull", s["parameters"], s["metrics"], {"e": lambda t: 0.7 - 0.1 * t})
+    log = pd.read_parquet(run / "log.parquet").assign(F_norm=y)
+    log.to_parquet(run / "log.parquet")
+    assert P.plot_run(run).is_file()

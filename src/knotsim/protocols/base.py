@@ -41,6 +41,7 @@ from knotsim._util.jsonio import json_safe, write_json
 from knotsim.contact.options import ContactOptions
 from knotsim.errors import ConfigError, SimulationError
 from knotsim.protocols.params import COMMON_DEFAULTS, Params, resolve_params
+from knotsim.protocols.timeline import apply_settle, merge_settle_reactions
 
 __all__ = ["SUMMARY_KEYS", "LoadingProtocol", "ProtocolResult", "RunContext", "build_protocol_run",
            "run_protocol"]
@@ -149,7 +150,7 @@ class LoadingProtocol:
         """Called once ``ctx.model`` exists, before the run (default: nothing)."""
 
     def duration(self, ctx: RunContext) -> float:
-        """Simulated time, s (used when the ``duration`` parameter is ``None``)."""
+        """Simulated time, s, after any settling (used when the ``duration`` parameter is ``None``)."""
         raise NotImplementedError
 
     def record(self, ctx: RunContext, q: np.ndarray, t: float, reactions: dict) -> dict[str, float]:
@@ -351,10 +352,12 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
                  density=float(p["density"]), poisson_ratio=float(p["poisson_ratio"])).EI
     ctx = RunContext(params=p, geometry=geo, EI=ei, radius=geo.radius, length=geo.length)
     proto.setup(ctx)
+    apply_settle(ctx, p["settle_time"])  # the loading starts after settle_time (protocols/timeline.py)
     duration = p["duration"] if p["duration"] is not None else proto.duration(ctx)
     if not (isinstance(duration, int | float) and duration > 0 and math.isfinite(duration)):
         raise ConfigError("duration", f"must be a positive time in s, got {duration!r}")
-    p.values["duration"] = float(duration)
+    p.values["duration"] = float(duration)  # the protocol's time, after any settling
+    duration = ctx.data["t_settle"] + float(duration)  # the run's
     contact = {"mu": p["mu"], **p.contact}
     # the friction law that runs is written down (run.toml, run.json, summary.json)
     contact.setdefault("friction_model", str(ContactOptions().friction_model))
@@ -430,7 +433,8 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     ctx.data["q0"] = sim.state.q.copy()
 
     def callback(s, res):
-        s.rows[-1].update(proto.record(ctx, s.state.q, s.state.time, res.reactions))
+        reactions = merge_settle_reactions(ctx, res.reactions)
+        s.rows[-1].update(proto.record(ctx, s.state.q, s.state.time, reactions))
 
     run_status = "completed"
     out = Path(out_dir) if out_dir is not None else None

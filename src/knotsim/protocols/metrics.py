@@ -54,6 +54,7 @@ __all__ = [
     "tail_draw_in",
     "window_mean",
     "window_peak",
+    "window_peak_at",
 ]
 
 
@@ -106,6 +107,20 @@ def window_peak(log: pd.DataFrame, column: str = "F_norm", t0: float | None = No
     """Largest value of ``column`` over ``t0 <= time <= t1`` (s); NaN for an empty window."""
     y = _column(log, column)[_window(log, t0, t1)]
     return float(np.max(y)) if y.size else math.nan
+
+
+def window_peak_at(log: pd.DataFrame, column: str = "F_norm", t0: float | None = None,
+                   t1: float | None = None) -> tuple[float | None, float | None]:
+    """``(value, time)``: the largest value of ``column`` over ``t0 <= time <= t1`` (s) and the time
+    (s) of its first occurrence; ``(None, None)`` for an empty window or one without finite values."""
+    sel = _window(log, t0, t1)
+    y = _column(log, column)[sel]
+    t = _column(log, "time")[sel]
+    ok = np.isfinite(y)
+    if not ok.any():
+        return None, None
+    k = int(np.flatnonzero(ok)[np.argmax(y[ok])])
+    return float(y[k]), float(t[k])
 
 
 def force_at(log: pd.DataFrame, x_column: str, x_value: float, column: str = "F_norm") -> float:

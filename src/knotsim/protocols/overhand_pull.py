@@ -19,10 +19,18 @@ Per-step log columns:
 - ``end_to_end`` (m) = ``|x_{N-1} - x_0|``; ``e = L - end_to_end`` (m); ``R = e / 2 pi`` (m);
   ``sqrt_h_over_R = sqrt(h / R)``.
 
-Metrics: ``F_norm`` at ``e = 0.4, 0.35, 0.3, 0.25 m``, the peak ``F_norm``, the final ``e`` and
-``F_norm`` (mean over the last 0.25 s), and ``force_drop``: the first sudden drop of ``F_norm`` (loop inversion, see
-:func:`knotsim.protocols.metrics.slip_onset`, drop > 20 % of the running maximum, the first 10 % of
-the pull ignored as start-up transient), or ``None``.
+Metrics (times in s of the pull, from its start after any ``settle_time``): ``F_norm`` at
+``e = 0.4, 0.35, 0.3, 0.25 m``, the peak ``F_norm_peak`` after the start-up ``transient`` (default
+2 s: the drawn knot rings the rope at the start, its end reactions swinging far above and below the
+force the knot carries) and its time ``F_norm_peak_time``, the final ``e`` and ``F_norm`` (mean over
+the last 0.25 s), and ``force_drop``: the first sudden drop of ``F_norm`` (loop inversion, see
+:func:`knotsim.protocols.metrics.slip_onset`, drop > 20 % of the running maximum, the first
+``transient`` or 10 % of the pull, whichever is longer, ignored), or ``None``.
+
+``--quick``: N = 81, dt = 5 ms, 30 mm/s per end to ``e = 0.29 m``; the ends are held still for the
+first second (``settle_time``: the drawn knot settles and its ringing dies down while they are held),
+then the pull speed grows over 0.5 s (``ramp_time``), and the peak is taken after that ramp
+(``transient`` 0.5 s).
 """
 
 from __future__ import annotations
@@ -33,14 +41,16 @@ import numpy as np
 
 from knotsim.protocols.base import LoadingProtocol, RunContext, end_group_nodes, unit
 from knotsim.protocols.geometry import one_rope_ends
-from knotsim.protocols.metrics import force_at, moving_average, slip_onset, window_mean, window_peak
+from knotsim.protocols.metrics import force_at, moving_average, slip_onset, window_mean, window_peak_at
+from knotsim.protocols.timeline import measured_log
 
 
-def force_drop(log) -> dict | None:
+def force_drop(log, transient: float = 0.0) -> dict | None:
     """First sudden drop of ``F_norm`` (loop inversion): more than 20 % below the running maximum of
     the 0.5 s moving average, once that maximum exceeds a quarter of the largest (averaged) force;
-    the first 10 % of the pull is skipped as start-up transient. ``None`` if there is none."""
-    t_skip = 0.1 * float(log["time"].iloc[-1])
+    the first ``transient`` s or 10 % of the record (``time`` in s from the start of the pull),
+    whichever is longer, is skipped as start-up transient. ``None`` if there is none."""
+    t_skip = max(float(transient), 0.1 * float(log["time"].iloc[-1]))
     late = np.asarray(log["time"] >= t_skip)
     fmax = float(np.max(moving_average(log, "F_norm", 0.5)[late])) if late.any() else 0.0
     return slip_onset(log, "F_norm", mode="drop", drop_fraction=0.2, min_force=0.25 * max(fmax, 1e-12),
@@ -62,10 +72,12 @@ class OverhandPull(LoadingProtocol):
         "e_final": 0.25,      # m, end of the pull (when duration is None)
         "held_end": "",       # "ROPE:NODE" held still ("": both ends pulled apart)
         "pulled_end": "",     # "ROPE:NODE" pulled and measured ("": the last node's end)
+        "transient": 2.0,     # s of the pull left out of the peak (start-up ringing of the drawn knot)
         "output_interval": 0.25,
     }
     fixed_geometry = ("n_nodes", "radius", "length")
-    quick = {"n_nodes": 81, "dt": 5e-3, "pull_speed": 0.03, "e_final": 0.29, "output_interval": 0.5}
+    quick = {"n_nodes": 81, "dt": 5e-3, "pull_speed": 0.03, "e_final": 0.29, "output_interval": 0.5,
+             "settle_time": 1.0, "ramp_time": 0.5, "transient": 0.5}
 
     def setup(self, ctx: RunContext) -> None:
         x = ctx.geometry.ropes[0]
@@ -89,7 +101,9 @@ class OverhandPull(LoadingProtocol):
     def duration(self, ctx: RunContext) -> float:
         e0 = ctx.data["e0"]
         ef = float(ctx.params["e_final"])
-        return max(e0 - ef, 0.01 * ctx.length) / float(ctx.data["separation_speed"])
+        # a ramp of the pull speed over T loses T/2 of the travel at full speed
+        ramp = 0.5 * float(ctx.params["ramp_time"])
+        return max(e0 - ef, 0.01 * ctx.length) / float(ctx.data["separation_speed"]) + ramp
 
     def record(self, ctx: RunContext, q, t, reactions) -> dict:
         m = ctx.model
@@ -106,10 +120,16 @@ class OverhandPull(LoadingProtocol):
                 "sqrt_h_over_R": math.sqrt(ctx.radius / R) if R > 0 else math.nan}
 
     def metrics(self, ctx: RunContext, log) -> dict:
-        drop = force_drop(log)
+        log = measured_log(ctx, log)  # time from the start of the pull (after settle_time)
+        if not len(log):
+            return {}
+        transient = float(ctx.params["transient"])
+        drop = force_drop(log, transient)
+        peak, t_peak = window_peak_at(log, "F_norm", transient)
         out = {f"F_norm_at_e_{int(round(ev * 1000))}mm": force_at(log, "e", ev) for ev in (0.4, 0.35, 0.3, 0.25)}
         out.update({
-            "F_norm_peak": window_peak(log, "F_norm"),
+            "F_norm_peak": peak,
+            "F_norm_peak_time": t_peak,
             "e_start": float(ctx.data["e0"]),
             "e_final": float(log["e"].iloc[-1]),
             "F_norm_final": window_mean(log, "F_norm", float(log["time"].iloc[-1]) - 0.25),  # last 0.25 s

@@ -32,6 +32,7 @@ COMMON_DEFAULTS: dict[str, Any] = {
     "geometry_scale": 1.0,    # factor from a node file's units to m (geometry sources only)
     "geometry_matrices": "",  # names of a .mat node file's rope matrices, "A,B" ("": the file's rule)
     "ramp_time": 0.0,         # s over which the pull speed grows from 0 (0: abrupt start, as published)
+    "settle_time": 0.0,       # s the loaded ends are held still before the loading starts (0: none, as published)
 }
 
 #: Unit and one-line meaning of every protocol parameter (of :data:`COMMON_DEFAULTS` and of each
@@ -49,12 +50,14 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "gravity": ("m/s^2", "gravitational acceleration along -z (0: none)"),
     "mu": ("-", "Coulomb friction coefficient"),
     "dt": ("s", "target time step (the stepper halves it on failure and grows it back)"),
-    "duration": ("s", "simulated time (none: the protocol computes it)"),
+    "duration": ("s", "simulated time after any settle_time (none: the protocol computes it)"),
     "output_interval": ("s", "time between trajectory frames"),
     "geometry_scale": ("-", "factor from a --geometry node file's units to m (geometry sources only)"),
     "geometry_matrices": ("text", "the rope matrices of a --geometry .mat file, in order, e.g. A,B (empty: every "
                                   "3 x N or N x 3 matrix; an ambiguous file is refused); the ropes take their names"),
     "ramp_time": ("s", "the pull speed grows linearly from 0 over this time (0: the abrupt start of the published set-ups)"),
+    "settle_time": ("s", "the loaded ends are held still this long before the loading starts, while the drawn knot "
+                         "settles and its start-up ringing dies down; metrics count from the end (0: none, as published)"),
     "contact.delta": ("m", "contact distance tolerance of the IMC potential"),
     "contact.nu": ("m/s", "slip speed below which friction is smoothed (sticking)"),
     # pulling
@@ -66,7 +69,8 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "pre_pull": ("m", "single-rod bend: end separation added before the measured pull (0: none)"),
     "pre_pull_speed": ("m/s", "single-rod bend: speed per end during the pre-pull (none: pull_speed)"),
     "end_twist": ("text", "single-rod bend: 'clamped' (pulled end edges keep their angle) or 'free'"),
-    "transient": ("s", "start-up time left out of the peak force and the slip detection"),
+    "transient": ("s", "start of the measured pull left out of the peak force and of the force-drop and slip "
+                       "detection (the start-up ringing is not the knot's strength)"),
     "loose_bend_radius": ("-", "single-rod bend: bend radius in rod radii h of the free-rope level; 'loose' when "
                                "F h^2/EI after the transient never exceeds 1/(4 r^2) + drag (r = 2: 0.0625)"),
     "loose_factor": ("-", "single-rod bend: metric 'tightened' = rope in the knot <= this x ideal ropelength (reported only)"),
@@ -91,7 +95,7 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
 PARAM_RANGES: dict[str, str] = {
     "n_nodes": "int>=3", "radius": ">0", "length": ">0", "youngs_modulus": ">0", "density": ">0",
     "poisson_ratio": "poisson", "damping": ">=0", "mu": ">=0", "dt": ">0", "duration": ">0",
-    "output_interval": ">0", "geometry_scale": ">0", "ramp_time": ">=0", "pull_speed": ">0", "e_final": ">0",
+    "output_interval": ">0", "geometry_scale": ">0", "ramp_time": ">=0", "settle_time": ">=0", "pull_speed": ">0", "e_final": ">0",
     "mean_window": ">0", "hold_time": ">=0", "hold_nodes": "int>=1", "pre_pull": ">=0",
     "pre_pull_speed": ">0", "transient": ">=0", "loose_factor": ">0", "loose_bend_radius": ">0", "pull_length": ">0",
     "pre_tighten": ">=0", "pre_tighten_speed": ">0", "force_rate": ">0", "runaway_speed": ">0",

@@ -26,7 +26,8 @@ Per-step log columns: ``F_start``, ``F_end`` (N): axial traction on the clamped 
 (positive in tension); ``F`` = their mean; ``F_norm = F h^2 / EI``; ``end_to_end`` (m); ``t_pull``
 (s, negative during the pre-tightening).
 
-Metrics: mean and peak ``F_norm`` over the pull window ``t_pull in [0, mean_window]`` s (13 s),
+Metrics: mean ``F_norm`` over the pull window ``t_pull in [0, mean_window]`` s (13 s) and its peak
+after the start-up ``transient`` (``F_norm_peak`` at ``F_norm_peak_time``, s of the pull),
 ``F_norm`` at 2.5, 5, 7.5, 10, 12.5 s, and the slip onset (first drop of ``F_norm`` by more than 30 % below
 its 0.5 s moving average's running maximum, once that maximum exceeds half the largest averaged
 force, after the first max(2 s, 20 %) of the pull, see
@@ -64,7 +65,14 @@ import numpy as np
 from knotsim.errors import ConfigError
 from knotsim.protocols.base import LoadingProtocol, RunContext, end_group_nodes, stage_duration, unit
 from knotsim.protocols.geometry import one_rope_ends
-from knotsim.protocols.metrics import ideal_ropelength, moving_average, slip_onset, window_mean, window_peak
+from knotsim.protocols.metrics import (
+    ideal_ropelength,
+    moving_average,
+    slip_onset,
+    window_mean,
+    window_peak_at,
+)
+from knotsim.protocols.timeline import measured_log, pull_start
 
 #: Times (s) at which F h^2/EI was read off the published figure.
 REPORT_TIMES = (2.5, 5.0, 7.5, 10.0, 12.5)
@@ -186,23 +194,24 @@ class SingleRodBend(LoadingProtocol):
         contour = float(np.sum(np.linalg.norm(np.diff(x, axis=0), axis=1)))
         return {"F": f, "F_start": f_start, "F_end": f_end, "F_norm": f * ctx.radius**2 / ctx.EI,
                 "end_to_end": float(np.linalg.norm(x1 - x0)), "contour_length": contour,
-                "t_pull": float(t) - ctx.data.get("t_pre", 0.0)}
+                "t_pull": float(t) - pull_start(ctx)}
 
     def metrics(self, ctx: RunContext, log) -> dict:
         w = float(ctx.params["mean_window"])
         t_pre = float(ctx.data.get("t_pre", 0.0))
-        if t_pre > 0:  # metrics on the pull time t - t_pre, restricted to the measured pull
-            log = log[log["time"] >= t_pre - 1e-9].copy()
-            log["time"] = log["time"] - t_pre
+        # metrics on the pull time (after any settle_time and pre-pull), restricted to the measured pull
+        log = measured_log(ctx, log)
         if not len(log):
             return {"pre_pull_time": t_pre}
         t = np.asarray(log["time"], float)
         transient = float(ctx.params["transient"])
         if not transient >= 0:
             raise ConfigError("transient", f"must be a duration >= 0 in s, got {transient!r}")
+        peak, t_peak = window_peak_at(log, "F_norm", transient, w) if t[-1] > transient else (None, None)
         out = {
             "F_norm_mean": window_mean(log, "F_norm", 0.0, w),
-            "F_norm_peak": window_peak(log, "F_norm", transient, w) if t[-1] > transient else None,
+            "F_norm_peak": peak,
+            "F_norm_peak_time": t_peak,
             "mean_window": w,
             "F_norm_final": window_mean(log, "F_norm", float(log["time"].iloc[-1]) - 0.25),  # last 0.25 s
             "pre_pull_time": t_pre,

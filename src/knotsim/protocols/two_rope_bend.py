@@ -50,7 +50,10 @@ are apart at the end (no node of one within ``4h`` of the other, ``rope_gap_fina
 closure :func:`close_bend` (standing ends joined, tails joined) names a bend but moves with the
 loose tails and is not used for the outcome.
 
-Metrics: mean and peak ``F_norm`` over the run; the holding force ``F_norm_hold``: the largest
+Metrics (times in s from the start of the pull, after any ``settle_time`` and cinching stage):
+mean ``F_norm`` over the pull and its peak after the start-up transient (``F_norm_peak`` at
+``F_norm_peak_time``: the loose drawing rings the rope as its strands snap together, far above the
+load the bend then holds); the holding force ``F_norm_hold``: the largest
 0.5 s moving average of ``F_norm`` after the start-up transient (the first ``transient`` s,
 default 2 s), i.e. the peak force the bend carries before or while it gives way; tail and
 pulled-end draw-in; and the slip onset, which decides the outcome ``"slipped"``:
@@ -85,8 +88,9 @@ from knotsim.protocols.metrics import (
     sustained_onset,
     tail_draw_in,
     window_mean,
-    window_peak,
+    window_peak_at,
 )
+from knotsim.protocols.timeline import measured_log, pull_start
 
 
 def tail_lengths(ropes: list[np.ndarray], free_ends: list[tuple[int, int]], radius: float,
@@ -405,7 +409,8 @@ class TwoRopeBend(LoadingProtocol):
         300 mm, see ``validation/reports/knots_bends.md``), 40 s in force control."""
         t_pre = ctx.data.get("t_pre", 0.0)
         if ctx.params["mode"] == "displacement":
-            return t_pre + float(ctx.params["pull_length"]) / float(ctx.params["pull_speed"])
+            ramp = 0.5 * float(ctx.params["ramp_time"]) if t_pre == 0 else 0.0  # a ramp over T loses T/2 at full speed
+            return t_pre + float(ctx.params["pull_length"]) / float(ctx.params["pull_speed"]) + ramp
         return t_pre + 40.0
 
     def closure(self, ctx: RunContext, curves):
@@ -425,7 +430,7 @@ class TwoRopeBend(LoadingProtocol):
         if ctx.params["mode"] == "displacement":
             f = float(np.dot(reactions["pull"][:3], axis))
         else:
-            f = float(ctx.params["force_rate"]) * t
+            f = float(ctx.params["force_rate"]) * max(float(t) - pull_start(ctx), 0.0)  # the applied ramp
         f_held = -float(np.dot(reactions["held"][:3], axis))
         ropes = [x[m.rod_node_start[r]:m.rod_node_start[r + 1]] for r in range(m.n_rods)]
         delta = float(ctx.params.contact.get("delta", 5e-4))
@@ -435,17 +440,21 @@ class TwoRopeBend(LoadingProtocol):
 
     def metrics(self, ctx: RunContext, log) -> dict:
         t_pre = float(getattr(ctx, "data", {}).get("t_pre", 0.0))
-        if t_pre > 0:  # metrics on the pull after the cinching stage, time from its end
-            log = log[log["time"] >= t_pre - 1e-9].copy()
-            log["time"] = log["time"] - t_pre
+        if pull_start(ctx) > 0:  # metrics on the pull after settling and cinching, time from its start
+            log = measured_log(ctx, log)
             if len(log) < 2:
                 return {"mode": ctx.params["mode"], "pre_tighten_time": t_pre}
         t = np.asarray(log["time"], float)
+        t_skip = float(ctx.params["transient"])
+        if not t_skip >= 0:
+            raise ConfigError("transient", f"must be a duration >= 0 in s, got {t_skip!r}")
+        peak, t_peak = window_peak_at(log, "F_norm", t_skip) if t[-1] > t_skip else (None, None)
         out = {
             "mode": ctx.params["mode"],
             "pre_tighten_time": t_pre,
             "F_norm_mean": window_mean(log, "F_norm"),
-            "F_norm_peak": window_peak(log, "F_norm"),
+            "F_norm_peak": peak,  # after the start-up transient, as F_norm_hold
+            "F_norm_peak_time": t_peak,
             "F_norm_final": window_mean(log, "F_norm", float(log["time"].iloc[-1]) - 0.25),  # last 0.25 s
             "tail_a_draw_in": tail_draw_in(log, "tail_a"),
             "tail_b_draw_in": tail_draw_in(log, "tail_b"),
@@ -457,9 +466,6 @@ class TwoRopeBend(LoadingProtocol):
             out["rope_gap_final"] = gap
             out["ropes_apart"] = bool(gap > APART_RADII * ctx.radius)
         p = ctx.params
-        t_skip = float(p["transient"])
-        if not t_skip >= 0:
-            raise ConfigError("transient", f"must be a duration >= 0 in s, got {t_skip!r}")
         after = t >= t_skip
         need = float(p["slip_hold"]) + 2.0 if p["mode"] == "displacement" else 0.5
         out["decidable"] = bool(t[-1] - t_skip >= need)
