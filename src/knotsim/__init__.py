@@ -44,12 +44,12 @@ _LAZY = {
     "FunctionPath": "knotsim.bc", "Rotation": "knotsim.bc",
     # contact
     "Contact": "knotsim.contact.model", "ContactOptions": "knotsim.contact.model",
-    "StiffnessMode": "knotsim.contact.model", "LinearSolver": "knotsim.solver.stepper",
-    "Predictor": "knotsim.solver.stepper",
+    "StiffnessMode": "knotsim.contact.model", "LinearSolver": "knotsim.solver.options",
+    "Predictor": "knotsim.solver.options",
     "Obstacle": "knotsim.contact.obstacles", "Plane": "knotsim.contact.obstacles",
     "Capsule": "knotsim.contact.obstacles", "Sphere": "knotsim.contact.obstacles",
     # solver and simulation
-    "SolverOptions": "knotsim.solver.stepper", "Simulation": "knotsim.simulation",
+    "SolverOptions": "knotsim.solver.options", "Simulation": "knotsim.simulation",
     "solve_static": "knotsim.solver.static",
     # runs
     "RunSpec": "knotsim.runspec", "RunResult": "knotsim.runspec", "build_run": "knotsim.runspec", "run": "knotsim.runspec",

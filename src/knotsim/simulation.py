@@ -14,9 +14,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from knotsim.errors import ConfigError, SimulationError, ValidityError
+from knotsim.solver.options import SolverSettings
 from knotsim.solver.state import State, initial_state
 from knotsim.solver.steplog import StepLog
-from knotsim.solver.stepper import SolverSettings, StepFailure, Stepper, StepResult
+from knotsim.solver.stepper import StepFailure, Stepper, StepResult
 from knotsim.solver.validity import ValidityMonitor
 
 if TYPE_CHECKING:
@@ -47,7 +48,7 @@ class Simulation:
         #: the validity guards (:mod:`knotsim.solver.validity`), checked on every converged step
         self.validity = ValidityMonitor(model, self.settings.max_axial_strain, self.settings.max_energy_gain,
                                         _energy_floor(model, self.stepper.force_tol),
-                                        _untracked_sources(self.stepper.interactions))
+                                        _untracked_sources(self.stepper.interactions), self.stepper.interactions)
         self.dt = self.settings.dt
         self.dt_min = self.settings.dt_min or self.settings.dt / 1024.0
         self._easy = 0

@@ -469,6 +469,19 @@ class Obstacle:
                         f"{n}_spin_z": float(self.spin[2])})
         return out
 
+    def supplied_work(self, q_prev: np.ndarray, q: np.ndarray, dt: float) -> float:
+        """Work (J) the obstacle's motion did on the rods during the accepted step that ended at
+        ``q``: the power of the contact and friction forces on the rods at the velocity of the
+        obstacle's surface where they act (its translation, its prescribed turn or free spin),
+        ``dt sum_i f_i . (v + omega x (y_i - c))`` with ``y_i`` the surface point (first order in
+        ``dt``, see :mod:`knotsim.solver.validity`). Zero for an obstacle at rest."""
+        if not self.nodes.size or (not np.any(self._vel) and not np.any(self.surface_omega)):
+            return 0.0
+        x = q[self._dofs]
+        surface = x - (self._gap + self.node_h)[:, None] * self._normal
+        v = self._vel[None, :] + np.cross(self.surface_omega, surface - self._cen[None, :])
+        return float(dt * np.einsum("ij,ij->", self._fc + self._ff, v))
+
     def _advance_spin(self) -> None:
         """``ω_{n+1}`` from the last evaluation (the accepted step) by :func:`spin_update`."""
         q = getattr(self, "_q_eval", None)

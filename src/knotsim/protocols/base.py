@@ -315,6 +315,13 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
         from knotsim.io.geometry import is_run_directory
         from knotsim.protocols.geometry import run_material
 
+        if is_run_directory(geometry) and quick_layer:
+            # an earlier run's rope is settled and moving: holding its ends still, or starting the
+            # pull from rest, would jolt it (its pulled end keeps its speed)
+            for key in ("settle_time", "ramp_time"):
+                if key in quick_layer:
+                    notes.append(f"--quick: {key} = {quick_layer.pop(key)} not applied (the run's rope goes on as it "
+                                 "was moving)")
         # an earlier run's rope keeps its material unless overridden (it is the same rope)
         material = run_material(geometry) if is_run_directory(geometry) else {}
         for key, value in material.items():

@@ -30,8 +30,9 @@ import scipy.sparse as sp
 from knotsim.errors import ConfigError, SimulationError
 from knotsim.solver.linear import LinearSolveError
 from knotsim.solver.newton import newton_solve
+from knotsim.solver.options import SolverSettings
 from knotsim.solver.state import State, initial_state
-from knotsim.solver.stepper import SolverSettings, Stepper, _StepSystem
+from knotsim.solver.stepper import Stepper, _StepSystem
 
 
 @dataclass

@@ -11,13 +11,11 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from enum import StrEnum
 from typing import Protocol
 
 import numpy as np
 
 from knotsim.energies.elastic import ElasticEnergy, FrameSource
-from knotsim.errors import ConfigError
 from knotsim.solver import assembly as asm
 from knotsim.solver._kernels import (
     all_finite,
@@ -32,6 +30,7 @@ from knotsim.solver._validity_kernels import constrained_work
 from knotsim.solver.diagnosis import largest_residual_at
 from knotsim.solver.linear import BandedSolver, LinearSolveError, SparseSolver
 from knotsim.solver.newton import newton_solve
+from knotsim.solver.options import LinearSolver, Predictor, SolverOptions, SolverSettings  # noqa: F401 (re-exported)
 from knotsim.solver.state import State
 
 _EPS = float(np.finfo(float).eps)
@@ -59,108 +58,8 @@ class Interaction(Protocol):
         """Numbers to log for the last accepted step."""
 
 
-class LinearSolver(StrEnum):
-    """How Newton's linear systems are solved (:attr:`SolverOptions.linear_solver`)."""
-
-    AUTO = "auto"      #: banded when the bandwidth allows it, else sparse
-    BANDED = "banded"  #: banded LDL^T / LU
-    SPARSE = "sparse"  #: fixed-pattern sparse LU
-
-
-class Predictor(StrEnum):
-    """Initial Newton guess of a step (:attr:`SolverOptions.predictor`)."""
-
-    ACCELERATION = "acceleration"  #: q_n + dt v*, v extrapolated at constant acceleration
-    VELOCITY = "velocity"          #: q_n + dt v_n
-    PREVIOUS = "previous"          #: q_n
-
-
 class StepFailure(Exception):
     """A step attempt failed (Newton did not converge, or an interaction rejected the result)."""
-
-
-@dataclass
-class SolverOptions:
-    """Settings of the Newton solver and time stepper.
-
-    - ``dt``: target time step, s; ``dt_min``: smallest step before giving up (default ``dt/1024``);
-    - ``max_iterations``: Newton iterations per attempt;
-    - ``force_tol`` (N) and ``moment_tol`` (N m): residual tolerances; default
-      ``1e-9 EI/l^2`` and that times the mean edge length ``l`` (smallest over rods); a step is
-      converged when the residual is below tolerance and the last Newton step, or the Newton
-      correction computed at the current iterate, below ``step_tol`` (or the residual below 1 % of
-      tolerance);
-    - ``step_tol`` (m): Newton step tolerance, default ``1e-6 l``; ``angle_tol`` (rad) likewise 1e-6;
-    - ``grow_after``: consecutive easy steps (at most ``easy_iterations`` iterations) before the step
-      doubles back towards ``dt``;
-    - ``linear_solver``: ``"auto"`` (banded when possible), ``"banded"``, ``"sparse"``;
-    - ``predictor``: initial Newton guess, ``"acceleration"`` (``q_n + dt v*`` with the velocity
-      extrapolated at constant acceleration, ``v* = v_n + (v_n - v_{n-1}) dt/dt_{n-1}``; 0.8 fewer
-      Newton iterations per step on ``benchmarks/bench_contact.py``, 4.19 against 4.97; falls back to
-      ``"velocity"`` when there is no previous step), ``"velocity"`` (``q_n + dt v_n``) or
-      ``"previous"`` (``q_n``);
-    - ``jacobian_reuse``: modified Newton, keeping the factorised Jacobian while iterations converge
-      fast (see :func:`~knotsim.solver.newton.newton_solve`);
-    - ``jacobian_across_steps`` (with ``jacobian_reuse``): a step starts from the previous step's
-      factorised Jacobian, instead of assembling and factorising one at its start, when that step
-      converged in one iteration and the step size, the constrained unknowns and the interactions'
-      block pattern are unchanged (the within-step rule above then refreshes it when it stops
-      contracting fast). Checkpoints keep that Jacobian, so that continued runs stay bit for bit;
-    - validity limits (:mod:`knotsim.solver.validity`): ``max_axial_strain``, the largest
-      ``|l/l0 - 1|`` of an edge (default 0.5), and ``max_energy_gain``, the energy created without a
-      source as a fraction of the energy the run handled (default 0.5); a converged step beyond
-      either stops the run with a :class:`~knotsim.errors.ValidityError` (``math.inf`` switches a
-      guard off).
-    """
-
-    dt: float = 1e-3
-    dt_min: float | None = None
-    max_iterations: int = 50
-    force_tol: float | None = None
-    moment_tol: float | None = None
-    step_tol: float | None = None
-    angle_tol: float = 1e-6
-    line_search: bool = True
-    grow_after: int = 5
-    easy_iterations: int = 4
-    linear_solver: LinearSolver | str = LinearSolver.AUTO
-    predictor: Predictor | str = Predictor.ACCELERATION
-    jacobian_reuse: bool = True
-    jacobian_across_steps: bool = True
-    max_axial_strain: float = 0.5
-    max_energy_gain: float = 0.5
-
-    def validate(self) -> None:
-        if not (isinstance(self.dt, int | float) and self.dt > 0 and math.isfinite(self.dt)):
-            raise ConfigError("solver.dt", f"must be a positive time step in s, got {self.dt!r}")
-        if self.dt_min is not None and not (0 < self.dt_min <= self.dt):
-            raise ConfigError("solver.dt_min", f"must lie in (0, dt={self.dt}], got {self.dt_min!r}")
-        if not (isinstance(self.max_iterations, int) and self.max_iterations >= 1):
-            raise ConfigError("solver.max_iterations", f"must be a positive integer, got {self.max_iterations!r}")
-        for name in ("force_tol", "moment_tol", "step_tol", "angle_tol"):
-            v = getattr(self, name)
-            if v is not None and not (v > 0):
-                raise ConfigError(f"solver.{name}", f"must be positive, got {v!r}")
-        for name in ("max_axial_strain", "max_energy_gain"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not v > 0:
-                raise ConfigError(f"solver.{name}", f"must be a positive number (inf switches the guard off), got {v!r}")
-        self.linear_solver = _member(LinearSolver, self.linear_solver, "solver.linear_solver")
-        self.predictor = _member(Predictor, self.predictor, "solver.predictor")
-
-
-def _member(enum, value, field: str):
-    """``value`` (a member or its string) as a member of ``enum``; :class:`ConfigError` naming
-    ``field`` and the allowed values otherwise."""
-    try:
-        return enum(value)
-    except ValueError:
-        allowed = ", ".join(repr(m.value) for m in enum)
-        raise ConfigError(field, f"must be one of {allowed}, got {value!r}") from None
-
-
-#: Former name of :class:`SolverOptions`.
-SolverSettings = SolverOptions
 
 
 @dataclass
@@ -610,11 +509,12 @@ class Stepper:
         state_out.time = t_new
         stats = {}
         work = constrained_work(system.last_full_residual, fixed, f_bc, q, state_in.q)
-        for inter in self.interactions:
-            stats.update(inter.stats())
+        for inter in self.interactions:  # (before stats: a free-spinning obstacle advances its spin there)
             supplied = getattr(inter, "supplied_work", None)
             if supplied is not None:
                 work += supplied(state_in.q, q, dt)
+        for inter in self.interactions:
+            stats.update(inter.stats())
         return StepResult(t_new, dt, res.iterations, res.residual, res.line_search_cuts, energies, reactions,
                           stats, self.last_solver, external_work=float(work),
                           interaction_energies={i.name: energies[i.name] for i in self.interactions})

@@ -10,7 +10,8 @@ After every converged step, before it is accepted, :class:`ValidityMonitor` chec
 - **energy without a source**: the total energy ``E`` (elastic, contact and obstacle penalties,
   springs, kinetic, gravity) may only grow by the work ``W`` supplied by the supports (prescribed
   motion: ``W = sum r_i dq_i`` over the constrained unknowns, ``r`` their reaction), the applied
-  forces and moments, spring grips' moving anchors and moving obstacles. Backward Euler, damping
+  forces and moments, spring grips' moving anchors, moving obstacles and changes of an adaptive
+  contact stiffness. Backward Euler, damping
   and friction dissipate, so the energy created from nothing, ``G = sum (dE - W)``, stays near or
   below zero in a valid run; the run stops when ``G`` exceeds ``max_energy_gain`` times the energy
   the run has handled (the largest of the energies present and of the summed ``|W|``). Where a run
@@ -47,8 +48,12 @@ class ValidityMonitor:
     ``untracked_sources``: names of sources whose work is not counted (then no energy check)."""
 
     def __init__(self, model, max_axial_strain: float, max_energy_gain: float, energy_floor: float,
-                 untracked_sources: list[str] | None = None):
+                 untracked_sources: list[str] | None = None, interactions=()):
         self.model = model
+        #: interactions whose penalty energy is ``k_c`` times a function of the positions (an
+        #: adaptive ``k_c`` changes their energy between steps: a source, counted)
+        self.stiffened = [i for i in interactions if hasattr(i, "k_c")]
+        self.penalty = {i.name: (math.nan, 0.0) for i in self.stiffened}  # name -> (k_c, energy) at the last step
         self.max_axial_strain = float(max_axial_strain)
         self.max_energy_gain = float(max_energy_gain)
         self.energy_floor = float(energy_floor)
@@ -97,13 +102,22 @@ class ValidityMonitor:
         if not math.isfinite(energy):
             raise ValidityError(f"non-finite energy {energy!r} at t={t:.6g} s; the state left the model",
                                 quantity="energy", value=energy)
+        # a stiffness k_c changed between steps changes the penalty energy k_c phi(q_n) by
+        # (k_new / k_old - 1) E_old before the rods move: work of a source, not of the motion
+        restiffened = 0.0
+        for inter in self.stiffened:
+            k_old, e_old = self.penalty[inter.name]
+            if k_old > 0.0:
+                restiffened += (float(inter.k_c) / k_old - 1.0) * e_old
+            self.penalty[inter.name] = (float(inter.k_c), float(res.interaction_energies.get(inter.name, 0.0)))
         if math.isnan(self.energy):  # the first step: the reference
             self.energy = energy
             self.gravity_start = e.get("gravity", 0.0)
             self.scale = max(stored, self.energy_floor)
             return
-        self.gain += energy - self.energy - res.external_work
-        self.work_handled += abs(res.external_work)
+        work = res.external_work + restiffened
+        self.gain += energy - self.energy - work
+        self.work_handled += abs(work)
         stored += abs(e.get("gravity", 0.0) - self.gravity_start)
         self.scale = max(self.scale, stored, self.work_handled)
         self.energy = energy
@@ -159,7 +173,9 @@ class ValidityMonitor:
         g, tg = self.worst_gain
         return ({"energy": self.energy, "gravity_start": self.gravity_start, "gain": self.gain,
                  "work_handled": self.work_handled, "scale": self.scale, "worst_strain": s, "worst_strain_edge": e,
-                 "worst_strain_time": ts, "worst_gain": g, "worst_gain_time": tg}, {})
+                 "worst_strain_time": ts, "worst_gain": g, "worst_gain_time": tg,
+                 **{f"penalty_k_c/{n}": k for n, (k, _) in self.penalty.items()},
+                 **{f"penalty_energy/{n}": en for n, (_, en) in self.penalty.items()}}, {})
 
     def load_state(self, meta: dict, arrays: dict) -> None:
         """Restore what :meth:`save_state` returned (nothing: a checkpoint from before the monitor)."""
@@ -172,3 +188,6 @@ class ValidityMonitor:
         self.scale = float(meta["scale"])
         self.worst_strain = (float(meta["worst_strain"]), int(meta["worst_strain_edge"]), float(meta["worst_strain_time"]))
         self.worst_gain = (float(meta["worst_gain"]), float(meta["worst_gain_time"]))
+        for n in self.penalty:
+            if f"penalty_k_c/{n}" in meta:
+                self.penalty[n] = (float(meta[f"penalty_k_c/{n}"]), float(meta[f"penalty_energy/{n}"]))

@@ -18,7 +18,7 @@ from knotsim.bc import BoundaryConditions
 from knotsim.contact.model import ContactInteraction, ContactSettings
 from knotsim.rods import Model, RodSpec
 from knotsim.simulation import Simulation
-from knotsim.solver.stepper import SolverSettings
+from knotsim.solver.options import SolverSettings
 
 H = 1e-3  # rod radius, m
 DELTA = 5e-4  # IMC distance tolerance, m

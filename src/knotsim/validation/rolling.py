@@ -41,7 +41,7 @@ import numpy as np
 
 from knotsim.contact.model import Contact, ContactOptions
 from knotsim.simulation import Simulation
-from knotsim.solver.stepper import SolverOptions
+from knotsim.solver.options import SolverOptions
 from knotsim.validation.contact import CROSSING_LENGTH, CROSSING_NODES, H, crossing_rods
 
 #: Pressing depth of B's end groups (m, 1 mm past first contact) and pressing time (s).

@@ -42,7 +42,7 @@ from knotsim.errors import ConfigError
 from knotsim.io.config.bc import BCSpec, bcs_builder, parse_bc, resolve_releases
 from knotsim.io.config.rods import parse_rod
 from knotsim.rods import Model
-from knotsim.solver.stepper import SolverSettings
+from knotsim.solver.options import SolverSettings
 
 __all__ = ["RunConfig", "build_simulation", "contact_interactions", "load_config"]
 
