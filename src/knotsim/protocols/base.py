@@ -389,7 +389,7 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
 
 def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: dict | None = None,
                  progress: bool = False, quick: bool = False, geometry: str | None = None,
-                 save_config=None) -> ProtocolResult:
+                 save_config=None, on_start=None) -> ProtocolResult:
     """Run loading protocol ``name`` on ``knot`` (or on ``geometry``) and return its summary and log.
 
     Parameters
@@ -413,6 +413,9 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
         Coarse, short settings (the protocol's ``quick`` overrides, applied before ``overrides``).
     save_config:
         Also write the complete run description to this file (``knotsim run FILE`` replays it).
+    on_start:
+        Called with no arguments once every input is checked, before the simulation is built (the
+        command line prints its notes there, so that an input error comes alone).
 
     Returns
     -------
@@ -424,14 +427,17 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     the per-step log (a DataFrame, also when nothing is written).
     """
     from knotsim.protocols.metrics import knot_status
-    from knotsim.runspec import build_run
+    from knotsim.runspec import build_run, check_run
 
     wall0 = time.perf_counter()
     proto, ctx, spec, notes = build_protocol_run(name, knot, geometry=geometry, overrides=overrides, quick=quick)
+    cfg = check_run(spec)
     if save_config is not None:
         spec.save(save_config, header=f"knotsim pull: {spec.data['description']}; replay with "
                                       f"knotsim run {Path(save_config).name} -o OUT")
-    sim, cfg = build_run(spec)
+    if on_start is not None:
+        on_start()
+    sim, cfg = build_run(cfg)
     ctx.model = cfg.model
     proto.prepare(ctx)
     geo = ctx.geometry

@@ -177,16 +177,19 @@ def pull(knot: str | None, geometry: Path | None, matrices: str | None, protocol
             protocol = geo.protocol_hint or ("overhand-pull" if len(geo.ropes) == 1 else "two-rope-bend")
     name = Path(knot).stem if knot is not None else Path(str(geometry)).name
     outdir = prepare_output(outdir, default_dir(name, protocol), overwrite)
-    if quick:
-        for note in _quick_notes(protocol, overrides, geometry):
-            click.echo(f"note: {note}", err=True)
     if progress is None:
         progress = sys.stderr.isatty()
-    announce_compile(contact=True)
     from knotsim.protocols.base import run_protocol
 
+    def start():  # every input checked: the notes, then the run (an input error is printed alone)
+        if quick:
+            for note in _quick_notes(protocol, overrides, geometry):
+                click.echo(f"note: {note}", err=True)
+        announce_compile(contact=True)
+
     s = run_protocol(protocol, knot=knot, out_dir=outdir, overrides=overrides, progress=progress, quick=quick,
-                     geometry=str(geometry) if geometry is not None else None, save_config=save_config)
+                     geometry=str(geometry) if geometry is not None else None, save_config=save_config,
+                     on_start=start)
     drawn = _figures(outdir) if figures and s["n_steps"] else []
     if as_json:
         click.echo(json.dumps(s.to_dict()))
@@ -214,7 +217,7 @@ def tie(sequence: str | None, outdir: Path | None, overwrite: bool, list_: bool,
 
     The result can be loaded next: knotsim pull --geometry OUTDIR --protocol PROTOCOL -o DIR2."""
     from knotsim.errors import ConfigError
-    from knotsim.knots.tying import list_tying_sequences, tie_from_straight
+    from knotsim.knots.tying import list_tying_sequences, tie_from_straight, tying_sequence_path
 
     if list_:
         for name in list_tying_sequences():
@@ -222,6 +225,7 @@ def tie(sequence: str | None, outdir: Path | None, overwrite: bool, list_: bool,
         return
     if sequence is None:
         raise ConfigError("tie", "give a SEQUENCE (or --list)")
+    tying_sequence_path(sequence)  # an unknown name is an error before any note
     outdir = prepare_output(outdir, default_dir("tie", sequence), overwrite)
     announce_compile(contact=True)
     res = tie_from_straight(sequence, out_dir=outdir, progress=progress)
