@@ -190,3 +190,47 @@ def test_node_file_edge_cases(tmp_path, text):
         assert "\n" not in str(exc) and str(f) in str(exc)
         return
     assert all(x.shape[1] == 3 and x.shape[0] >= 2 for x in ropes)
+
+
+# ---------------------------------------------------------------- protocol parameters
+#: strings a user may type after ``--set key=`` (parsed by the command line's own rules)
+TYPED = ["abc", "", "-1", "0", "1", "2.5", "1e-3", "1e400", "nan", "inf", "-inf", "true", "false", "[1, 2]", "[]",
+         "0:-1", "1:-1", "0:0", "5:3", "centreline", "surface", "clamped", "free", "{}", "'x'", "1,2", "\x00"]
+PROTOCOL_KNOTS = [("overhand-pull", "overhand_n1"), ("single-rod-bend", "single_rod_reef"),
+                  ("two-rope-bend", "reef_bend")]
+#: keys that only change the cost of a run, kept at their quick values so that valid draws stay cheap
+_COSTLY = {"n_nodes", "length", "duration", "output_interval"}
+
+
+@st.composite
+def protocol_assignments(draw):
+    from knotsim.protocols.params import protocol_defaults
+    from knotsim.protocols.registry import get_protocol
+
+    protocol, knot = draw(st.sampled_from(PROTOCOL_KNOTS))
+    keys = sorted(k for k in protocol_defaults(get_protocol(protocol)) if k not in _COSTLY)
+    keys += ["contact.delta", "contact.friction_model", "contact.stiffness_scaler", "no_such_key", "mu.x"]
+    items = [f"{k}={draw(st.sampled_from(TYPED))}" for k in draw(st.lists(st.sampled_from(keys), max_size=3))]
+    if draw(st.integers(0, 9)) == 0:
+        items.append(draw(st.sampled_from(["novalue", "=1", " = 2"])))
+    return protocol, knot, items
+
+
+@settings(max_examples=60, deadline=None, derandomize=True, database=None)
+@given(case=protocol_assignments())
+def test_protocol_parameters(case):
+    """``--set`` assignments through the parser, the protocol's run description, the run file check,
+    the simulation build and a first step: all pass, or one clear error line."""
+    from knotsim.protocols.base import build_protocol_run
+    from knotsim.protocols.params import parse_assignments
+    from knotsim.runspec import build_run, check_run
+
+    protocol, knot, items = case
+    try:
+        overrides = parse_assignments(items)
+        _, _, spec, _ = build_protocol_run(protocol, knot, overrides=overrides, quick=True)
+        sim, _ = build_run(check_run(spec))
+        sim.step()
+    except KnotsimError as exc:
+        msg = str(exc)
+        assert msg and "\n" not in msg and "Traceback" not in msg, (items, msg)

@@ -7,6 +7,7 @@ Keys are flat (``mu``, ``pull_speed``) or dotted into the contact and solver tab
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
@@ -202,7 +203,7 @@ def _coerce(key: str, default: Any, value: Any) -> Any:
         if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
             raise ConfigError(key, f"expected a number, got {value!r}")
         if isinstance(default, int) and not isinstance(default, bool):
-            if float(value) != int(value):
+            if not math.isfinite(float(value)) or float(value) != int(value):
                 raise ConfigError(key, f"expected an integer, got {value!r}")
             return int(value)
         return float(value)
