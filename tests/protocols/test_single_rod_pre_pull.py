@@ -28,7 +28,8 @@ def test_pre_pull_default_is_off():
 def test_pre_pull_moves_the_ends_then_measures_the_window(tmp_path):
     out = tmp_path / "pre"
     s = run_protocol("single-rod-bend", "single_rod_reef", out_dir=out, quick=True,
-                     overrides={"pre_pull": 0.1, "pre_pull_speed": 0.025, "mean_window": 0.5, "duration": None})
+                     overrides={"pre_pull": 0.1, "pre_pull_speed": 0.025, "mean_window": 0.5, "duration": None,
+                                "settle_time": 0.0})  # (the pre-pull's own timing: no settling first)
     # (at 50 mm/s per end this N = 101 knot sits on the edge of untying: whether it holds then
     # depends on round-off in the linear solver, so the test pre-pulls at 25 mm/s)
     assert s["run_status"] == "completed"
