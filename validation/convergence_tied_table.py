@@ -139,7 +139,9 @@ def render(table) -> str:
         verdict = _verdict(lo, hi)
         num = [v for lab, v in rs.items() if not lab.startswith("tie end pull")]
         slack = [v for lab, v in rs.items() if lab.startswith("tie end pull")]
-        parts = f"numerical settings only (dt, contact stiffness, δ, N; {len(num)} set-ups): [{min(num):.3g}, " \
+        settings_named = "dt, contact stiffness, δ, N" if any(lab.startswith("N = ") for lab in rs) else \
+            "dt, contact stiffness, δ"
+        parts = f"numerical settings only ({settings_named}; {len(num)} set-ups): [{min(num):.3g}, " \
                 f"{max(num):.3g}], {_verdict(min(num), max(num))}"
         if slack:
             parts += f"; tie end pull ±20 %: {', '.join(f'{v:.3g}' for v in slack)}"
