@@ -90,7 +90,7 @@ def test_force_in_wrong_units_stops_with_a_named_error_and_keeps_the_output(tmp_
     exc = info.value
     assert isinstance(exc, SimulationError) and exc.quantity == "axial_strain" and exc.value > 0.5
     msg = str(exc)
-    assert "edge 19 of rod 'cantilever'" in msg and "max_axial_strain=0.5" in msg and " at t=" in msg
+    assert "edge 19 of rod 'cantilever'" in msg and "max_axial_strain=2" in msg and " at t=" in msg
     assert exc.last_good_state is not None and exc.time == exc.last_good_state.time
     model = ks.Model([_straight(0.2, 21, "cantilever")])
     edges = np.diff(exc.last_good_state.q[model.node_dof[:, None] + np.arange(3)], axis=0)
@@ -111,12 +111,12 @@ def test_cli_exit_code_and_one_line(tmp_path):
 
 
 def test_close_to_the_limit_is_a_warning_in_run_json(tmp_path):
-    """A force ramped to 0.33 EA stretches the rod by about 33 % (more than half the default
-    limit 0.5): the run completes and run.json warns."""
+    """A force ramped to 0.33 EA stretches the rod by about 33 %, more than half of a limit 0.5 set in
+    the run file: the run completes and run.json warns."""
     ea = 1e6 * math.pi * 1e-6
     spec = _spec(tmp_path, f'[[bc]]\ntype = "force"\nname = "end"\nnodes = [-1]\n'
                            f'ramp = {{ from = [0.0, 0.0, 0.0], to = [{0.33 * ea}, 0.0, 0.0], duration = 0.5 }}\n'
-                           '[model]\ndamping = 0.5\n[solver]\ndt = 5e-3\n[run]\nduration = 0.6\n')
+                           '[model]\ndamping = 0.5\n[solver]\ndt = 5e-3\nmax_axial_strain = 0.5\n[run]\nduration = 0.6\n')
     run(spec, tmp_path / "out")
     info = json.loads((tmp_path / "out" / "run.json").read_text())
     assert info["outcome"] == "completed"
