@@ -310,7 +310,10 @@ def report(runs: Path) -> None:
              f"the reef at {PRE_PULL} m and give the granny its own slack, `pre_pull = {PRE_PULL_GRANNY}` m, at "
              "which its F h²/EI at 5 s equals the reef's (the published curves coincide there; with the "
              "common slack the granny is already at 0.085). Every other number below is a prediction, not "
-             "a fit.", "", FINDINGS]
+             "a fit.", "", FINDINGS if LAW == "centreline" else
+             f"## Findings\n\nThese runs use `contact.friction_model = \"{LAW}\"`. The findings written for the "
+             "centre-line law (`validation/reports/knots_single_rod.md`) quote that law's numbers and do not "
+             "apply here; the tables below are this law's own.\n"]
     # ---- main table
     lines += ["## Mean F h²/EI over the 13 s pull", "",
               "| set-up | knot | μ | mean F h²/EI | published | ratio | peak | end-to-end at window start (mm) | "
