@@ -47,8 +47,7 @@ class Simulation:
         self.state = state.copy() if state is not None else initial_state(model)
         #: the validity guards (:mod:`knotsim.solver.validity`), checked on every converged step
         self.validity = ValidityMonitor(model, self.settings.max_axial_strain, self.settings.max_energy_gain,
-                                        _energy_floor(model, self.stepper.force_tol),
-                                        _untracked_sources(self.stepper.interactions), self.stepper.interactions)
+                                        self.stepper.force_tol, self.stepper.interactions)
         self.dt = self.settings.dt
         self.dt_min = self.settings.dt_min or self.settings.dt / 1024.0
         self._easy = 0
@@ -291,17 +290,6 @@ class Simulation:
         if boundary_conditions and self.bcs is not None:
             self.bcs.load_state({name: checkpoint.section(f"bc/{name}") for name in self.bcs.groups},
                                 checkpoint.time)
-
-
-def _energy_floor(model, force_tol: float) -> float:
-    """J: the smallest energy scale of the energy guard, ``1e3 force_tol`` times the total rope length
-    (a run at rest handles no energy; its round-off must not count as energy created)."""
-    return 1e3 * force_tol * float(np.sum(model.rest_length))
-
-
-def _untracked_sources(interactions) -> list[str]:
-    """Names of the interactions that supply work the energy guard cannot count."""
-    return [name for inter in interactions for name in getattr(inter, "untracked_sources", list)()]
 
 
 def _copy_sections(sections: dict[str, tuple[dict, dict]]) -> dict[str, tuple[dict, dict]]:

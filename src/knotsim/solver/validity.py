@@ -44,12 +44,14 @@ class ValidityMonitor:
     """Checks every converged step against the model's validity limits; keeps the run's extremes.
 
     ``model``: the :class:`~knotsim.rods.Model`; ``max_axial_strain`` (dimensionless, ``inf`` to
-    switch off); ``max_energy_gain`` (dimensionless, ``inf`` to switch off); ``energy_floor`` (J):
-    the smallest energy scale the gain is measured against (round-off of a run at rest);
-    ``untracked_sources``: names of sources whose work is not counted (then no energy check)."""
+    switch off); ``max_energy_gain`` (dimensionless, ``inf`` to switch off); ``force_tol`` (N): the
+    stepper's force tolerance, which sets the smallest energy scale the gain is measured against,
+    ``1e3 force_tol`` times the total rope length (a run at rest handles no energy; its round-off
+    must not count as energy created); ``interactions``: the stepper's interactions (their
+    ``untracked_sources()`` name sources whose work is not counted: then no energy check)."""
 
-    def __init__(self, model, max_axial_strain: float, max_energy_gain: float, energy_floor: float,
-                 untracked_sources: list[str] | None = None, interactions=()):
+    def __init__(self, model, max_axial_strain: float, max_energy_gain: float, force_tol: float,
+                 interactions=()):
         self.model = model
         #: interactions whose penalty energy is ``k_c`` times a function of the positions (an
         #: adaptive ``k_c`` changes their energy between steps: a source, counted)
@@ -57,8 +59,9 @@ class ValidityMonitor:
         self.penalty = {i.name: (math.nan, 0.0) for i in self.stiffened}  # name -> (k_c, energy) at the last step
         self.max_axial_strain = float(max_axial_strain)
         self.max_energy_gain = float(max_energy_gain)
-        self.energy_floor = float(energy_floor)
-        self.untracked_sources = list(untracked_sources or [])
+        self.energy_floor = 1e3 * float(force_tol) * float(np.sum(model.rest_length))
+        self.untracked_sources = [name for inter in interactions
+                                  for name in getattr(inter, "untracked_sources", list)()]
         # run state (saved in checkpoints: see save_state)
         self.energy = math.nan          # J, total energy after the last accepted step
         self.gravity_start = math.nan   # J, gravity potential after the first accepted step
