@@ -126,9 +126,8 @@ def test_params_and_defaults():
 
 def test_bend_closure_identifies_all_four_bends():
     from knotsim.knots.library import get_knot
-    from knotsim.knots.topology import analyze
+    from knotsim.knots.topology import analyze, close_bend
     from knotsim.protocols.base import unit
-    from knotsim.protocols.two_rope_bend import close_bend
 
     types = {}
     for name in ("reef_bend", "granny_bend", "thief_bend", "grief_bend"):

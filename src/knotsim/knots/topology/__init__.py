@@ -91,7 +91,7 @@ from knotsim.knots.topology.alexander import _minor_poly as _minor_poly
 from knotsim.knots.topology.alexander import _wirtinger as _wirtinger
 from knotsim.knots.topology.alexander import alexander_polynomial, knot_determinant
 from knotsim.knots.topology.analyze import TopologyResult, analyze, analyze_bend
-from knotsim.knots.topology.closure import bend_pairing, close_curves
+from knotsim.knots.topology.closure import bend_pairing, close_bend, close_curves
 from knotsim.knots.topology.counting import CountingRules, counting_rules, knot_counting_rules
 from knotsim.knots.topology.curves import TopologyError
 from knotsim.knots.topology.diagram import Diagram, project
@@ -120,6 +120,7 @@ __all__ = [
     "analyze",
     "analyze_bend",
     "bend_pairing",
+    "close_bend",
     "close_curves",
     "counting_rules",
     "gauss_linking_number",

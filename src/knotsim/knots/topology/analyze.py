@@ -8,7 +8,7 @@ from fractions import Fraction
 import numpy as np
 
 from knotsim.knots.topology.alexander import alexander_polynomial, knot_determinant
-from knotsim.knots.topology.closure import _close
+from knotsim.knots.topology.closure import _close, close_bend
 from knotsim.knots.topology.curves import TopologyError
 from knotsim.knots.topology.diagram import Diagram, project
 from knotsim.knots.topology.jones import _jones_from_bracket, kauffman_bracket
@@ -201,7 +201,7 @@ def analyze_bend(ropes, standing, **kwargs) -> TopologyResult:
     """Topology of a two-rope bend whose standing (loaded) ends are known, with the bend named.
 
     The two standing ends are joined far away and the two tails far away into one closed curve
-    (:func:`knotsim.protocols.two_rope_bend.close_bend`, standing join above the knot, tails join
+    (:func:`~knotsim.knots.topology.close_bend`, standing join above the knot, tails join
     below it), which is analysed by :func:`analyze`; the two ropes, each closed on itself, give the
     linking number that, with the closure's Rolfsen name, names the bend (:func:`identify_bend`).
 
@@ -215,8 +215,6 @@ def analyze_bend(ropes, standing, **kwargs) -> TopologyResult:
     kwargs:
         Passed to :func:`analyze` (projection and Jones options).
     """
-    from knotsim.protocols.two_rope_bend import close_bend  # the project's one bend closure
-
     arrs = [np.asarray(r, dtype=float) for r in ropes]
     (ra, ea), (rb, eb) = ((int(r), int(e)) for r, e in standing)
     if len(arrs) != 2 or {ra, rb} != {0, 1} or ea not in (0, 1) or eb not in (0, 1):

@@ -4,7 +4,8 @@ Every free end ``p`` is joined by a straight segment to a point on a large spher
 (radially from the centroid of all nodes, ``method="radial"``, or along the end tangent,
 ``method="tangent"``), and the two far points of a pair of ends are joined by a great-circle arc
 sampled on that sphere; every closure arc gets its own sphere radius, so arcs never meet each other.
-See the package docstring of :mod:`knotsim.knots.topology`.
+A two-rope bend whose standing ends are known is closed into one curve by :func:`close_bend`
+(standing ends joined over the knot, tails under it). See the package docstring of :mod:`knotsim.knots.topology`.
 """
 
 from __future__ import annotations
@@ -242,3 +243,82 @@ def close_curves(
     """
     comps, _ = _close(curves, closed, pairing, method, radius_factor, arc_step_deg)
     return comps
+
+
+def _core(x: np.ndarray, others: np.ndarray, cutoff: float, pad: int) -> slice:
+    """Node range of ``x`` from its first to its last node within ``cutoff`` of ``others``
+    (padded by ``pad`` nodes); the whole rope when none is."""
+    from scipy.spatial import cKDTree
+
+    idx = np.flatnonzero(cKDTree(others).query(x, distance_upper_bound=cutoff)[0] < np.inf)
+    if idx.size == 0:
+        return slice(0, len(x))
+    return slice(max(0, int(idx[0]) - pad), min(len(x), int(idx[-1]) + 1 + pad))
+
+
+def close_bend(ropes: list[np.ndarray], axis: np.ndarray, standing_a: tuple[int, int],
+               standing_b: tuple[int, int], core_cutoff: float | None = None, pad: int = 3) -> np.ndarray:
+    """Close a two-rope bend into one closed polygon (m) for knot identification.
+
+    Knot theory joins the two standing ends together and the two tails together (see
+    :func:`knotsim.knots.topology.bend_pairing`). Here the joins are explicit and far from the
+    knot: from each end a straight run outwards along ``-axis`` (ends of rope A's side) or
+    ``+axis`` (rope B's side) to ``D`` (ten times the size of the tangle), then the standing ends
+    are joined at height ``+D`` and the tails at ``-D`` along the normal of the plane of the axis
+    and the knot, so one join passes over everything and the other under everything and the two
+    joins are unlinked. (The radial closure of :func:`~knotsim.knots.topology.close_curves` finds
+    no generic projection for the thief and grief bends, whose standing and tail ends lie on
+    opposite corners.) For the reef and granny bends, whose standing ends and tails leave on the
+    same sides, this is the planar closure; for the thief and grief bends, whose standing ends and
+    tails are interleaved around the knot, one join must cross the other and the knot type is a
+    convention (standing join over, tails join under); it is the same at the start and the end.
+
+    Parameters
+    ----------
+    ropes:
+        The two ropes' ``(N, 3)`` node positions.
+    axis:
+        Unit pull axis, from rope A's standing end towards rope B's standing end.
+    standing_a, standing_b:
+        ``(rope index, end)`` of the standing ends (end 0 = first node, 1 = last node).
+    core_cutoff:
+        When given (m), each rope is first cut down to its part between its first and last node
+        within ``core_cutoff`` of the other rope (plus ``pad`` nodes), so that loose tails and
+        standing parts that flop across each other away from the knot do not change the closure.
+    """
+    ra, ea = standing_a
+    rb, eb = standing_b
+    ya, yb = ropes[ra], ropes[rb]
+    if core_cutoff is not None:
+        ya, yb = ya[_core(ya, yb, core_cutoff, pad)], yb[_core(yb, ya, core_cutoff, pad)]
+    a = ya if ea == 1 else ya[::-1]      # tail of A ... standing end of A
+    b = yb if eb == 0 else yb[::-1]      # standing end of B ... tail of B
+    allp = np.concatenate(ropes)
+    c = allp.mean(axis=0)
+    size = float(np.max(np.linalg.norm(allp - c, axis=1)))
+    D = 10.0 * max(size, 1e-6)
+    # normal of the knot plane: the direction of least spread orthogonal to the axis
+    rel = allp - c
+    rel = rel - np.outer(rel @ axis, axis)
+    w, v = np.linalg.eigh(rel.T @ rel)
+    nrm = np.cross(axis, v[:, -1])  # v[:, -1]: the in-plane direction of largest spread across the axis
+    if np.linalg.norm(nrm) < 1e-9:
+        nrm = np.cross(axis, [0.0, 0.0, 1.0] if abs(axis[2]) < 0.9 else [1.0, 0.0, 0.0])
+    # the sign of an eigenvector is arbitrary: orient the normal consistently (towards +z, else +y, +x),
+    # otherwise the over/under joins could swap between the start and the end of a run
+    for ref in (2, 1, 0):
+        if abs(nrm[ref]) > 1e-3 * np.linalg.norm(nrm):
+            nrm = nrm if nrm[ref] > 0 else -nrm
+            break
+    nrm /= np.linalg.norm(nrm)
+
+    def out(p, sign, dist):
+        along = float(np.dot(p - c, axis))
+        return p + (sign * dist - along) * axis
+
+    sa, sb, ta, tb = a[-1], b[0], a[0], b[-1]
+    s_out_a, s_out_b = out(sa, -1, D), out(sb, +1, D)
+    t_out_a, t_out_b = out(ta, -1, 1.1 * D), out(tb, +1, 1.1 * D)
+    standing = [s_out_a, s_out_a + D * nrm, s_out_b + D * nrm, s_out_b]
+    tails = [t_out_b, t_out_b - D * nrm, t_out_a - D * nrm, t_out_a]
+    return np.concatenate([a, np.array(standing), b, np.array(tails)])

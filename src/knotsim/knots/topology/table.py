@@ -124,7 +124,7 @@ def identify_knot(alexander: Sequence[int] | None, jones: dict | None) -> KnotEn
 
 
 #: Bends named from two invariants: the Rolfsen name of the knot made by joining the two standing
-#: (loaded) ends far away and the two tails far away (:func:`knotsim.protocols.two_rope_bend.close_bend`,
+#: (loaded) ends far away and the two tails far away (:func:`knotsim.knots.topology.close_bend`,
 #: handedness ignored: for bends whose standing ends and tails alternate around the knot, thief and
 #: grief, it is a convention of the closure), and the absolute linking number of the two ropes each
 #: closed on itself. Reef and thief (granny and grief) are one drawing loaded at different ends.
