@@ -98,7 +98,7 @@ def spare_cores() -> float:
 
 def _small_run_spec(contact: bool, linear_solver: str = "auto"):
     """A few steps of the quick overhand pull (the kernels' argument types are those of any run)."""
-    from knotsim.protocols.base import build_protocol_run
+    from knotsim.protocols.pipeline import build_protocol_run
     from knotsim.runspec import RunSpec
 
     _, _, spec, _ = build_protocol_run("overhand-pull", "overhand_n1", quick=True,

@@ -221,8 +221,8 @@ def protocol_assignments(draw):
 def test_protocol_parameters(case):
     """``--set`` assignments through the parser, the protocol's run description, the run file check,
     the simulation build and a first step: all pass, or one clear error line."""
-    from knotsim.protocols.base import build_protocol_run
     from knotsim.protocols.params import parse_assignments
+    from knotsim.protocols.pipeline import build_protocol_run
     from knotsim.runspec import build_run, check_run
 
     protocol, knot, items = case

@@ -10,8 +10,8 @@ from scipy.io import savemat
 
 from knotsim.errors import ConfigError
 from knotsim.io.geometry import read_node_file, read_node_ropes
-from knotsim.protocols.base import build_protocol_run
 from knotsim.protocols.cli import pull
+from knotsim.protocols.pipeline import build_protocol_run
 from knotsim.runspec import RunSpec, build_run
 
 

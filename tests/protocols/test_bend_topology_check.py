@@ -18,8 +18,8 @@ import pytest
 from knotsim.knots.library import get_knot
 from knotsim.knots.topology import gauss_linking_number
 from knotsim.protocols import run_protocol
-from knotsim.protocols.base import _topology, topology_keys
 from knotsim.protocols.metrics import knot_status
+from knotsim.protocols.pipeline import _topology, topology_keys
 from knotsim.protocols.two_rope_bend import APART_RADII, TwoRopeBend, link_key, rope_gap, split_jones
 
 BENDS = ["reef", "granny", "thief", "grief", "sheet", "double_sheet", "carrick", "hunters", "zeppelin", "ashley",

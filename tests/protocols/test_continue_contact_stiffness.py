@@ -8,7 +8,7 @@ import pytest
 from knotsim.contact.model import ContactInteraction, ContactSettings
 from knotsim.errors import ConfigError
 from knotsim.io.checkpoint import read_checkpoint
-from knotsim.protocols.base import build_protocol_run
+from knotsim.protocols.pipeline import build_protocol_run
 from knotsim.rods import Model, RodSpec
 
 TIED_REEF = Path(__file__).resolve().parents[2] / "docs" / "studies" / "granny_vs_reef_mu_tied" / "tied_reef"

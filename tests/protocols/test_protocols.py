@@ -255,8 +255,8 @@ def test_unidentified_end_compared_by_invariants():
     crossings); a different polynomial is still a change."""
     from types import SimpleNamespace
 
-    from knotsim.protocols.base import topology_keys
     from knotsim.protocols.metrics import knot_status
+    from knotsim.protocols.pipeline import topology_keys
     from knotsim.protocols.two_rope_bend import TwoRopeBend
 
     ctx = SimpleNamespace(data={"ends_interleaved": False})

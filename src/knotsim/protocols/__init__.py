@@ -21,8 +21,8 @@ import importlib
 
 # Names load on first use (PEP 562), so that ``knotsim.protocols.cli`` (imported by ``knotsim --help``)
 # does not pull in pandas, scipy and the protocol modules.
-_LAZY = {"LoadingProtocol": "base", "ProtocolResult": "base", "RunContext": "base", "build_protocol_run": "base",
-         "run_protocol": "base",
+_LAZY = {"LoadingProtocol": "base", "ProtocolResult": "base", "RunContext": "base",
+         "build_protocol_run": "pipeline", "run_protocol": "pipeline",
          "COMMON_DEFAULTS": "params", "parse_assignments": "params", "resolve_params": "params",
          "default_protocol": "registry", "get_protocol": "registry", "protocols": "registry"}
 

@@ -1,26 +1,10 @@
 """Common machinery of the loading protocols: a protocol is a run description plus metrics.
 
 A protocol (:class:`LoadingProtocol`) knows its published defaults, which boundary conditions load
-the knot (as run-file tables), what to record at every step and which strength metrics to compute.
-:func:`run_protocol` is the whole pipeline:
-
-1. resolve the parameters: the protocol defaults, then the knot drawing's defaults (``radius``,
-   ``length``, ``n_nodes``) unless the protocol fixes them, then ``quick`` settings, then the user
-   ``overrides`` (dotted keys, see :mod:`knotsim.protocols.params`);
-2. the starting geometry from a library knot or any other source
-   (:mod:`knotsim.protocols.geometry`: node files, ``.mat``, an earlier run's directory); the rest
-   shape is straight and untwisted (only the initial shape is knotted);
-3. the run description (:class:`~knotsim.runspec.RunSpec`): rods, the protocol's boundary conditions,
-   contact, solver, duration; it is written to ``run.toml`` (and, on request, anywhere else), and
-   ``knotsim run`` replays it to the same final positions;
-4. identify the knot type at the start (:func:`knotsim.knots.topology.analyze`);
-5. run it through :func:`knotsim.runspec.build_run` (files ``trajectory.h5``, ``log.parquet``,
-   ``run.json``, ``run.toml``, ``checkpoint.npz`` in ``out_dir``), adding the protocol's quantities
-   to every log row; a failure of the solver is recorded in the summary (``run_status``), not raised;
-6. identify the knot type at the end; a change is reported in ``outcome`` (``"untied"``,
-   ``"changed knot type (a -> b)"``); knots outside the table (``"unknown"``) are compared by their
-   Alexander polynomial and determinant; a failed topology check is recorded, not raised;
-7. compute the metrics and write ``summary.json`` (when ``out_dir`` is given).
+the knot (as run-file tables), what to record at every step and which strength metrics to compute;
+:class:`RunContext` is what its hooks see, :class:`ProtocolResult` what a run returns. The pipeline
+that runs a protocol (:func:`~knotsim.protocols.pipeline.run_protocol`) is
+:mod:`knotsim.protocols.pipeline`; this module imports neither it, the registry nor any protocol.
 
 Units: SI throughout (m, s, N, Pa, kg/m^3, Pa s).
 """
@@ -28,23 +12,18 @@ Units: SI throughout (m, s, N, Pa, kg/m^3, Pa s).
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from knotsim._util.jsonio import json_safe, write_json
-from knotsim.contact.options import ContactOptions
-from knotsim.errors import ConfigError, SimulationError
-from knotsim.protocols.params import COMMON_DEFAULTS, Params, resolve_params
-from knotsim.protocols.timeline import apply_settle, merge_settle_reactions
+from knotsim.errors import ConfigError
+from knotsim.protocols.params import Params
 
-__all__ = ["SUMMARY_KEYS", "LoadingProtocol", "ProtocolResult", "RunContext", "build_protocol_run",
-           "run_protocol"]
+__all__ = ["SUMMARY_KEYS", "LoadingProtocol", "ProtocolResult", "RunContext", "end_group_nodes", "stage_duration",
+           "unit"]
 
 
 #: The summary entries of a protocol run, in ``summary.json``'s order (``docs/protocols.md``).
@@ -54,7 +33,7 @@ SUMMARY_KEYS = ("protocol", "knot", "knot_kind", "geometry", "parameters", "fric
 
 
 class ProtocolResult(dict):
-    """What :func:`run_protocol` returns: the run's summary and its per-step log.
+    """What :func:`~knotsim.protocols.pipeline.run_protocol` returns: the run's summary and its per-step log.
 
     A dict of the summary entries (those of ``summary.json``: ``protocol``, ``knot``, ``parameters``,
     ``metrics``, ``outcome``, ``run_status``, ``topology``, ``contact``, ``EI`` in N m^2,
@@ -122,7 +101,7 @@ class RunContext:
 class LoadingProtocol:
     """Base class of a loading protocol (subclasses set the class attributes and hooks)."""
 
-    #: Name used by :func:`run_protocol` and the CLI.
+    #: Name used by :func:`~knotsim.protocols.pipeline.run_protocol` and the CLI.
     name: str = ""
     #: One-line description.
     description: str = ""
@@ -179,331 +158,6 @@ class LoadingProtocol:
         """What must be equal at the start and the end for the knot to count as unchanged (default:
         the knot type with its handedness, ``topo["signature"]``; ``None`` if the check failed)."""
         return topo.get("signature")
-
-
-# ------------------------------------------------------------------------------------------
-def _topology(curves, closed, pairing) -> dict[str, Any]:
-    from knotsim.knots.topology import analyze
-
-    errors = []
-    res = None
-    for closure in ("radial", "tangent"):
-        try:
-            res = analyze([np.asarray(c) for c in curves], closed, pairing=pairing, closure=closure)
-            break
-        except Exception as exc:  # recorded, never raised
-            errors.append(f"{closure} closure: {type(exc).__name__}: {exc}")
-    if res is None:
-        return {"knot_type": None, "error": "; ".join(errors)}
-    sig = res.knot_type if res.knot_type != "unknown" else f"unknown (Alexander {res.alexander}, det {res.determinant})"
-    jones = None if res.jones is None else " ".join(f"{c:+d}t^{e}" for e, c in sorted(res.jones.items()) if c)
-    lk = int(sum(res.linking[i, j] for i in range(res.n_components) for j in range(i + 1, res.n_components)))
-    if res.n_components > 1:  # a link: its components' own knot types and the total linking number
-        sig = f"{res.knot_type} ({' + '.join(res.component_types)}; lk {lk})"
-    return {"knot_type": res.knot_type, "signature": sig, "rolfsen": res.rolfsen, "alexander": res.alexander,
-            "component_types": list(res.component_types), "linking_number": lk, "jones": jones,
-            "determinant": int(res.determinant), "n_crossings_reduced": int(res.n_crossings_reduced),
-            "writhe": int(res.writhe), "n_components": int(res.n_components), "closure": closure,
-            "closure_errors": errors or None, "error": None}
-
-
-def topology_keys(proto: LoadingProtocol, ctx: RunContext, start: dict, end: dict) -> tuple[str | None, str | None]:
-    """The start and end keys compared for "knot type unchanged" (see :meth:`Protocol.topology_key`).
-
-    When one side is a knot outside the table (``"unknown"``: the simplified diagram was not
-    recognised) both sides are compared by their Alexander polynomial and determinant instead, so
-    that a failed identification of the same knot is not reported as a change. (These invariants do
-    not separate a knot from its mirror image, nor the reef from the granny; the contact model, whose
-    penetration is checked, is what keeps a rope from passing through another.)
-    """
-    k0, k1 = proto.topology_key(ctx, start), proto.topology_key(ctx, end)
-    if k0 is None or k1 is None or "unknown" not in (start.get("knot_type"), end.get("knot_type")):
-        return k0, k1
-    if start.get("alexander") is None or end.get("alexander") is None:
-        return k0, k1
-    return tuple(f"Alexander {t['alexander']}, det {t['determinant']}" for t in (start, end))
-
-
-def contact_stats(log: pd.DataFrame) -> dict[str, Any]:
-    """Contact statistics of a log: worst penetration (fraction of h), contacts per step, ..."""
-    def col(name, fn, default=math.nan):
-        if name in log.columns and len(log):
-            v = np.asarray(log[name], float)
-            v = v[np.isfinite(v)]
-            return float(fn(v)) if v.size else default
-        return default
-
-    return {
-        "worst_penetration_ratio": col("max_penetration_ratio", np.max, 0.0),
-        "mean_contacts": col("n_contacts", np.mean),
-        "max_contacts": col("n_contacts", np.max),
-        "max_contact_force_total": col("contact_force_total", np.max),
-        "max_friction_force_total": col("friction_force_total", np.max),
-        "max_stiffness": col("k_c", np.max),
-        "min_gap": col("min_gap", np.min),
-    }
-
-
-def _geometry_keys(p: Params, geo) -> None:
-    p.values["n_nodes"] = int(len(geo.ropes[0]))
-    p.values["radius"] = float(geo.radius)
-    p.values["length"] = float(geo.length)
-
-
-def _rope_count(proto: LoadingProtocol) -> int:
-    from knotsim.knots.library import load_knot_spec
-
-    return proto.n_ropes if proto.n_ropes is not None else len(load_knot_spec(proto.default_knot).ropes)
-
-
-def _check_fit(proto: LoadingProtocol, geo) -> None:
-    """:class:`ConfigError` (field ``protocol``) when ``geo`` has another number of ropes than
-    ``proto`` loads, naming the protocols that fit."""
-    from knotsim.protocols.geometry import CHOOSE_MATRICES
-    from knotsim.protocols.registry import protocols
-
-    want, have = _rope_count(proto), len(geo.ropes)
-    if want == have:
-        return
-    fits = [p.name for p in protocols().values() if _rope_count(p) == have]
-    rope = lambda n: f"{n} rope" + ("s" if n != 1 else "")  # noqa: E731
-    choose = f"{CHOOSE_MATRICES}, or " if geo.found else ""
-    raise ConfigError("protocol", f"{proto.name} loads {rope(want)}, but found {geo.describe_ropes()}; {choose}"
-                                  + (f"use --protocol {' or '.join(fits)}" if fits else "no protocol fits it"))
-
-
-def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | None = None,
-                       overrides: dict | None = None, quick: bool = False):
-    """The run description of protocol ``name`` on a library ``knot`` or on ``geometry`` (a node
-    file or an earlier run's directory; see :mod:`knotsim.protocols.geometry`).
-
-    Returns ``(protocol, ctx, spec, notes)``: the protocol, its :class:`RunContext`, the complete
-    :class:`~knotsim.runspec.RunSpec` and a list of notes for the user (e.g. quick settings that were
-    not applied because the geometry fixes the node count)."""
-    from knotsim.protocols.geometry import geometry_from_library, geometry_from_source, parse_matrices
-    from knotsim.protocols.registry import get_protocol
-    from knotsim.rods import RodSpec
-    from knotsim.runspec import RunSpec
-
-    proto = get_protocol(name)
-    notes: list[str] = []
-    defaults = dict(COMMON_DEFAULTS)
-    defaults.update(proto.defaults)
-    templates = dict(defaults)
-    templates.update({"n_nodes": 301, "radius": 1.0, "length": 1.0, "duration": 1.0})
-    templates.update({k: 1.0 for k, v in proto.defaults.items() if v is None})  # numeric unless given
-    quick_layer = dict(proto.quick) if quick else None
-    if geometry is None:
-        from knotsim.knots.library import load_knot_spec
-
-        knot = knot or proto.default_knot
-        spec = load_knot_spec(knot)
-        knot_defaults = {k: v for k, v in spec.defaults.items() if k in ("radius", "length", "n_nodes")
-                         and k not in proto.fixed_geometry}
-        params = resolve_params(templates, defaults, knot_defaults, quick_layer, overrides)
-        if parse_matrices(params["geometry_matrices"]):
-            raise ConfigError("geometry_matrices", f"names the matrices of a --geometry .mat file; {knot!r} is a "
-                                                   "library knot")
-        geo = geometry_from_library(knot, n_nodes=params["n_nodes"], radius=params["radius"],
-                                    length=params["length"])
-    else:
-        for key in ("n_nodes", "length"):
-            if quick_layer and key in quick_layer:
-                notes.append(f"--quick: {key} = {quick_layer.pop(key)} not applied (the geometry fixes {key})")
-            if overrides and key in overrides:
-                raise ConfigError(key, f"the geometry {geometry!r} fixes {key}; it cannot be set")
-        from knotsim.io.geometry import is_run_directory
-        from knotsim.protocols.geometry import run_material
-
-        if is_run_directory(geometry) and quick_layer:
-            # an earlier run's rope is settled and moving: holding its ends still, or starting the
-            # pull from rest, would jolt it (its pulled end keeps its speed)
-            for key in ("settle_time", "ramp_time"):
-                if key in quick_layer:
-                    notes.append(f"--quick: {key} = {quick_layer.pop(key)} not applied (the run's rope goes on as it "
-                                 "was moving)")
-        # an earlier run's rope keeps its material unless overridden (it is the same rope)
-        material = run_material(geometry) if is_run_directory(geometry) else {}
-        for key, value in material.items():
-            if not overrides or key not in overrides:
-                notes.append(f"--geometry: {key} = {value} from the run (--set {key}=... to change)")
-        params = resolve_params(templates, defaults, material, quick_layer, overrides)
-        scale = float(params["geometry_scale"])
-        if not (scale > 0 and math.isfinite(scale)):
-            raise ConfigError("geometry_scale", f"must be a positive factor (file units to m), got {scale!r}")
-        matrices = parse_matrices(params["geometry_matrices"])
-        if matrices:
-            params.values["geometry_matrices"] = ",".join(matrices)
-        geo = geometry_from_source(geometry, radius=params["radius"], scale=scale, matrices=matrices)
-        if geo.kind == "run" and overrides and "radius" in overrides and overrides["radius"] != geo.radius:
-            raise ConfigError("radius", f"the run {geometry!r} was computed with radius {geo.radius} m; "
-                                        "continuing it with another radius is not the same rope")
-    _check_fit(proto, geo)
-    _geometry_keys(params, geo)
-    counts = [len(x) for x in geo.ropes]
-    if len(set(counts)) > 1:
-        notes.append(f"the ropes have {', '.join(f'{a}: {c}' for a, c in zip(geo.rope_names, counts, strict=True))} "
-                     f"nodes; the parameter n_nodes gives rope {geo.rope_names[0]}'s")
-    p = params
-    rods = []
-    for r, (x, rname) in enumerate(zip(geo.ropes, geo.rope_names, strict=True)):
-        table = {"name": rname, "shape": "points", "positions": np.asarray(x, float).tolist(), "radius": geo.radius,
-                 "youngs_modulus": float(p["youngs_modulus"]), "density": float(p["density"]),
-                 "poisson_ratio": float(p["poisson_ratio"])}
-        if geo.state:
-            for key, val in geo.state[r].items():
-                if val is not None:
-                    table[key] = np.asarray(val, float).tolist()
-        rods.append(table)
-    ei = RodSpec(np.asarray(geo.ropes[0], float), radius=geo.radius, youngs_modulus=float(p["youngs_modulus"]),
-                 density=float(p["density"]), poisson_ratio=float(p["poisson_ratio"])).EI
-    ctx = RunContext(params=p, geometry=geo, EI=ei, radius=geo.radius, length=geo.length)
-    proto.setup(ctx)
-    apply_settle(ctx, p["settle_time"])  # the loading starts after settle_time (protocols/timeline.py)
-    duration = p["duration"] if p["duration"] is not None else proto.duration(ctx)
-    if not (isinstance(duration, int | float) and duration > 0 and math.isfinite(duration)):
-        raise ConfigError("duration", f"must be a positive time in s, got {duration!r}")
-    p.values["duration"] = float(duration)  # the protocol's time, after any settling
-    duration = ctx.data["t_settle"] + float(duration)  # the run's
-    contact = {"mu": p["mu"], **p.contact}
-    # the friction law that runs is written down (run.toml, run.json, summary.json)
-    contact.setdefault("friction_model", str(ContactOptions().friction_model))
-    if geo.contact_stiffness is not None and "initial_stiffness" not in contact:
-        # continuing a run: its pressed contacts keep their forces (from the floor stiffness they
-        # would give way at once; a tied reef pulled at mu = 0.3 failed in its first step)
-        contact["initial_stiffness"] = geo.contact_stiffness
-    solver = {"dt": float(p["dt"]), **p.solver}
-    data = {
-        "description": f"{proto.name} on {geo.name}",
-        "provenance": {"protocol": proto.name, "knot": geo.name, "geometry": geo.source,
-                       "parameters": {k: v for k, v in p.as_dict().items() if v is not None}},
-        "rods": rods,
-        "model": {"gravity": [0.0, 0.0, -float(p["gravity"])], "damping": float(p["damping"])},
-        "bc": ctx.bc,
-        "contact": contact,
-        "solver": solver,
-        "run": {"duration": float(duration), "output_interval": float(p["output_interval"])},
-    }
-    return proto, ctx, RunSpec.from_dict(data), notes
-
-
-def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: dict | None = None,
-                 progress: bool = False, quick: bool = False, geometry: str | None = None,
-                 save_config=None, on_start=None) -> ProtocolResult:
-    """Run loading protocol ``name`` on ``knot`` (or on ``geometry``) and return its summary and log.
-
-    Parameters
-    ----------
-    name:
-        ``"overhand-pull"``, ``"single-rod-bend"`` or ``"two-rope-bend"``.
-    knot:
-        Library knot name or drawing path (default: the protocol's default knot).
-    geometry:
-        Instead of ``knot``: a node file (text ``x y z [theta]``, ``.csv``, ``.npy``, ``.mat``) or an
-        earlier run's output directory (the run continues from its last state).
-    out_dir:
-        Directory for ``trajectory.h5``, ``log.parquet``, ``run.json``, ``run.toml``,
-        ``checkpoint.npz`` and ``summary.json`` (``None``: nothing is written).
-    overrides:
-        Dotted parameter overrides (``{"mu": 0.3, "contact.delta": 1e-3}``). Unknown keys raise
-        :class:`ConfigError`.
-    progress:
-        Show a progress bar.
-    quick:
-        Coarse, short settings (the protocol's ``quick`` overrides, applied before ``overrides``).
-    save_config:
-        Also write the complete run description to this file (``knotsim run FILE`` replays it).
-    on_start:
-        Called with no arguments once every input is checked, before the simulation is built (the
-        command line prints its notes there, so that an input error comes alone).
-
-    Returns
-    -------
-    :class:`ProtocolResult`: the summary entries ``protocol``, ``knot``, ``parameters``,
-    ``friction_model`` (``"surface"`` or ``"centreline"``, the law that ran), ``metrics``,
-    ``outcome``, ``run_status``, ``topology`` (start/end), ``contact`` (statistics incl.
-    ``worst_penetration_ratio``), ``wall_time`` (s), ``sim_time`` (s), ``n_steps``,
-    ``failed_attempts``, ``notes``, ... (as attributes and as ``result["outcome"]``) and ``log``,
-    the per-step log (a DataFrame, also when nothing is written).
-    """
-    from knotsim.protocols.metrics import knot_status
-    from knotsim.runspec import build_run, check_run
-
-    wall0 = time.perf_counter()
-    proto, ctx, spec, notes = build_protocol_run(name, knot, geometry=geometry, overrides=overrides, quick=quick)
-    cfg = check_run(spec)
-    if save_config is not None:
-        spec.save(save_config, header=f"knotsim pull: {spec.data['description']}; replay with "
-                                      f"knotsim run {Path(save_config).name} -o OUT")
-    if on_start is not None:
-        on_start()
-    sim, cfg = build_run(cfg)
-    ctx.model = cfg.model
-    proto.prepare(ctx)
-    geo = ctx.geometry
-    p = ctx.params
-    topo_start = _topology(*proto.closure(ctx, [np.array(x) for x in geo.ropes]))
-    ctx.data["q0"] = sim.state.q.copy()
-
-    def callback(s, res):
-        reactions = merge_settle_reactions(ctx, res.reactions)
-        s.rows[-1].update(proto.record(ctx, s.state.q, s.state.time, reactions))
-
-    run_status = "completed"
-    out = Path(out_dir) if out_dir is not None else None
-    t_start = float(sim.state.time)
-    try:
-        sim.run(cfg.duration, output_dir=out, output_interval=cfg.output_interval, progress=progress,
-                callback=callback)
-    except SimulationError as exc:
-        run_status = f"failed at t = {sim.state.time:.4g} s: {exc}"
-    log = sim.log()
-    model = cfg.model
-    curves = [model.rod_positions(sim.state.q, r) for r in range(model.n_rods)]
-    topo_end = _topology(*proto.closure(ctx, curves))
-    ctx.data["topology_end"] = topo_end
-    metrics = proto.metrics(ctx, log) if len(log) else {}
-    verdict = proto.verdict(ctx, metrics) if len(log) else "undecided"
-    status = knot_status(*topology_keys(proto, ctx, topo_start, topo_end), verdict=verdict)
-    if status == "changed knot type":
-        outcome = f"changed knot type ({topo_start['signature']} -> {topo_end['signature']})"
-    elif status == "unknown":
-        which = "start" if topo_start["knot_type"] is None else "end"
-        err = (topo_start if which == "start" else topo_end)["error"]
-        outcome = f"topology check failed at the {which}: {err}"
-    else:
-        outcome = status
-    if run_status != "completed":
-        outcome = f"{outcome}; simulation stopped early"
-    import knotsim
-
-    summary = {
-        "protocol": proto.name,
-        "knot": geo.name,
-        "knot_kind": geo.kind,
-        "geometry": geo.source,
-        "parameters": p.as_dict(),
-        "friction_model": str(spec.data["contact"]["friction_model"]),
-        "EI": ctx.EI,
-        "metrics": metrics,
-        "outcome": outcome,
-        "knot_status": status,
-        "run_status": run_status,
-        "topology": {"start": topo_start, "end": topo_end},
-        "contact": contact_stats(log),
-        "wall_time": time.perf_counter() - wall0,
-        "sim_time": float(sim.state.time - t_start),
-        "n_steps": int(len(log)),
-        "newton_iterations": int(log["iterations"].sum()) if len(log) else 0,
-        "failed_attempts": int(sim.n_failures),
-        "notes": notes,
-        "knotsim_version": knotsim.__version__,
-        "out_dir": str(out) if out is not None else None,
-    }
-    summary = json_safe(summary)
-    if out is not None:
-        write_json(out / "summary.json", summary)
-    return ProtocolResult(summary, log=log)
 
 
 # ------------------------------------------------------------------------------------------ helpers

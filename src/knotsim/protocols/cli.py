@@ -179,7 +179,7 @@ def pull(knot: str | None, geometry: Path | None, matrices: str | None, protocol
     outdir = prepare_output(outdir, default_dir(name, protocol), overwrite)
     if progress is None:
         progress = sys.stderr.isatty()
-    from knotsim.protocols.base import run_protocol
+    from knotsim.protocols.pipeline import run_protocol
 
     def start():  # every input checked: the notes, then the run (an input error is printed alone)
         if quick:
