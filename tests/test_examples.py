@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from knotsim.io.config import build_simulation, load_config
+from knotsim.io.config import load_config
+from knotsim.runspec import build_simulation
 
 EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))
 

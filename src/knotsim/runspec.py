@@ -16,6 +16,7 @@ the run to the last bit; every run directory holds its own ``run.toml``.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,7 +27,7 @@ import pandas as pd
 from knotsim._util.toml import load_toml, write_toml
 from knotsim.errors import ConfigError
 
-__all__ = ["RunResult", "RunSpec", "build_run", "run"]
+__all__ = ["RunResult", "RunSpec", "build_run", "build_simulation", "check_run", "run"]
 
 #: rod keys that name files, resolved against the description's directory when it is saved elsewhere
 _PATH_KEYS = ("file", "run")
@@ -98,6 +99,24 @@ def check_run(spec: RunSpec | dict | str | os.PathLike, *, duration: float | Non
     return cfg
 
 
+def build_simulation(config, *, description: dict | None = None):
+    """A :class:`~knotsim.simulation.Simulation` ready to run ``config`` (a checked
+    :class:`~knotsim.io.config.RunConfig`, a run file path or a dict): the model, fresh boundary
+    conditions, the contact and obstacle interactions, a copy of the solver options, and the run
+    description (``description``, default a copy of ``config.raw``; written to ``run.toml`` and
+    ``run.json``) and stage windows the simulation carries."""
+    from knotsim.io.config import RunConfig, contact_interactions, load_config
+    from knotsim.simulation import Simulation
+
+    if not isinstance(config, RunConfig):
+        config = load_config(config)
+    interactions = contact_interactions(config.model, config.contact) + config.build_obstacles()
+    return Simulation(config.model, config.build_bcs(), dataclasses.replace(config.solver),
+                      interactions=interactions,
+                      config=copy.deepcopy(config.raw) if description is None else description,
+                      stages=config.stages)
+
+
 def build_run(spec, *, duration: float | None = None, continue_from: str | os.PathLike | None = None):
     """A :class:`~knotsim.simulation.Simulation` ready to run ``spec`` (a :class:`RunSpec`, a dict, a
     run file, or a :class:`~knotsim.io.config.RunConfig` from :func:`check_run`), and the checked
@@ -110,10 +129,13 @@ def build_run(spec, *, duration: float | None = None, continue_from: str | os.Pa
     capture theirs when they first act.
     """
     from knotsim.io.checkpoint import read_checkpoint
-    from knotsim.io.config import RunConfig, build_simulation
+    from knotsim.io.config import RunConfig
 
     cfg = spec if isinstance(spec, RunConfig) else check_run(spec, duration=duration)
-    sim = build_simulation(cfg)
+    description = copy.deepcopy(cfg.raw)
+    if continue_from is not None:
+        description.setdefault("provenance", {})["continued_from"] = str(Path(continue_from).resolve())
+    sim = build_simulation(cfg, description=description)
     if continue_from is None:
         for inter in sim.stepper.interactions:
             if hasattr(inter, "check_start"):
@@ -127,7 +149,6 @@ def build_run(spec, *, duration: float | None = None, continue_from: str | os.Pa
         ckpt = read_checkpoint(ckpt_path)
         same = (d / "run.toml").is_file() and _same_bcs(load_toml(d / "run.toml"), cfg.raw)
         sim.restore(ckpt, boundary_conditions=same)
-        sim.config.setdefault("provenance", {})["continued_from"] = str(d.resolve())
     return sim, cfg
 
 

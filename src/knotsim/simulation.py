@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import time as _time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -34,10 +34,16 @@ class Simulation:
     settings: :class:`~knotsim.solver.stepper.SolverSettings` (``dt`` is the target step, s).
     interactions: contact/friction terms (see :class:`~knotsim.solver.stepper.Interaction`).
     state: initial :class:`~knotsim.solver.state.State` (default: from the rod specs).
+    config: the run description (a plain dict with the tables of a run file) this simulation was
+        built from, written to ``run.toml`` and ``run.json`` with the output; ``None`` (built in
+        Python): no ``run.toml``. :func:`knotsim.runspec.build_simulation` passes it.
+    stages: ``[(name, t_start, t_end), ...]`` (s): the stages of the run description; each log row
+        names the stage its step belongs to (column ``stage``).
     """
 
     def __init__(self, model, bcs=None, settings: SolverSettings | None = None, interactions=(),
-                 state: State | None = None):
+                 state: State | None = None, *, config: dict | None = None,
+                 stages: Sequence[tuple[str, float, float]] = ()):
         self.model = model
         self.bcs = bcs
         self.settings = settings or SolverSettings()
@@ -64,9 +70,11 @@ class Simulation:
         self.rows: StepLog = StepLog()
         self._row_keys: dict = {}
         self.n_failures = 0
+        #: the run description (``run.toml``), or ``None``
+        self.config: dict | None = config
         #: ``[(name, t_start, t_end), ...]`` (s): stages of the run description; each log row names
         #: the stage its step belongs to (column ``stage``).
-        self.stages: list[tuple[str, float, float]] = []
+        self.stages: list[tuple[str, float, float]] = list(stages)
 
     # ------------------------------------------------------------------ stepping
     def step(self) -> StepResult:

@@ -9,7 +9,8 @@ import pytest
 import knotsim as ks
 from knotsim.bc import Waypoints
 from knotsim.errors import ConfigError
-from knotsim.io.config import build_simulation, load_config
+from knotsim.io.config import load_config
+from knotsim.runspec import build_simulation
 from knotsim.solver.state import initial_state
 
 L = 0.1

@@ -11,7 +11,8 @@ import pytest
 import knotsim as ks
 from knotsim.contact.obstacles import Capsule, Plane, Sphere
 from knotsim.errors import ConfigError
-from knotsim.io.config import build_simulation, load_config
+from knotsim.io.config import load_config
+from knotsim.runspec import build_simulation
 
 BASE = {
     "rods": [{"name": "rope", "shape": "straight", "length": 0.2, "n_nodes": 21, "start": [0.0, 0.0, 1.7e-3],

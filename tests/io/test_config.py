@@ -12,7 +12,8 @@ import pytest
 
 from knotsim.errors import ConfigError
 from knotsim.io import config as cfgmod
-from knotsim.io.config import build_simulation, load_config
+from knotsim.io.config import load_config
+from knotsim.runspec import build_simulation
 
 TOML = """
 description = "pulled rod"

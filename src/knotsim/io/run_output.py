@@ -87,7 +87,7 @@ class RunOutput:
         m = sim.model
         self.model = m
         self.interval = output_interval
-        self.config = config if config is not None else getattr(sim, "config", None)
+        self.config = config if config is not None else sim.config
         self.writer = TrajectoryWriter(self.dir / "trajectory.h5", m.rod_node_start, m.rod_edge_start, m.rod_closed,
                                        m.rod_radius, m.rod_names, flush_every=16, n_bend=int(m.n_bend),
                                        rest_edge_length=m.rest_length,

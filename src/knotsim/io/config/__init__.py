@@ -2,7 +2,7 @@
 checked key by key and turned into ready-to-use objects.
 
 >>> cfg = load_config("examples/pull_both_ends.toml")
->>> sim = build_simulation(cfg)
+>>> sim = knotsim.runspec.build_simulation(cfg)     # the run builder makes the simulation
 >>> log = sim.run(cfg.duration, output_dir="out", output_interval=cfg.output_interval)
 
 Every value is in SI units (m, s, kg, N, Pa, rad). An unknown key, a value of the wrong type or out
@@ -13,6 +13,6 @@ modules: :mod:`~knotsim.io.config.rods` (shapes and geometry sources),
 :mod:`~knotsim.io.config.bc` (boundary conditions), :mod:`~knotsim.io.config.loader` (the rest).
 """
 
-from knotsim.io.config.loader import RunConfig, build_simulation, contact_interactions, load_config
+from knotsim.io.config.loader import RunConfig, contact_interactions, load_config
 
-__all__ = ["RunConfig", "build_simulation", "contact_interactions", "load_config"]
+__all__ = ["RunConfig", "contact_interactions", "load_config"]

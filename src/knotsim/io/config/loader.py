@@ -44,7 +44,7 @@ from knotsim.io.config.rods import parse_rod
 from knotsim.rods import Model
 from knotsim.solver.options import SolverSettings
 
-__all__ = ["RunConfig", "build_simulation", "contact_interactions", "load_config"]
+__all__ = ["RunConfig", "contact_interactions", "load_config"]
 
 _TOP_KEYS = ("description", "rods", "model", "bc", "solver", "run", "contact", "stages", "provenance", "obstacles")
 _MODEL_KEYS = ("gravity", "damping")
@@ -294,18 +294,3 @@ def load_config(source, *, base_dir=None, duration: float | None = None) -> RunC
 
     return RunConfig(model=model, bcs_builder=builder, solver=solver, duration=dur, output_interval=interval,
                      raw=raw, contact=contact, base_dir=bdir, stages=windows, obstacles_builder=obstacles)
-
-
-def build_simulation(config):
-    """A :class:`~knotsim.simulation.Simulation` ready to run ``config`` (a :class:`RunConfig`,
-    a TOML path or a dict); ``sim.config`` holds the raw configuration for ``run.json``."""
-    from knotsim.simulation import Simulation
-
-    if not isinstance(config, RunConfig):
-        config = load_config(config)
-    interactions = contact_interactions(config.model, config.contact) + config.build_obstacles()
-    sim = Simulation(config.model, config.build_bcs(), dataclasses.replace(config.solver),
-                     interactions=interactions)
-    sim.config = copy.deepcopy(config.raw)
-    sim.stages = list(config.stages)
-    return sim

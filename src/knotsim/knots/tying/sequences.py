@@ -51,7 +51,8 @@ def _state_at(cfg: dict, t: float, state) -> np.ndarray:
     """Node positions (N, 3) (m) at time ``t`` (s) of the run ``cfg``: ``state`` when given, else
     computed by running ``cfg`` up to ``t``."""
     if state is None:
-        from knotsim.io.config import build_simulation, load_config
+        from knotsim.io.config import load_config
+        from knotsim.runspec import build_simulation
 
         rc = load_config(copy.deepcopy(cfg))
         sim = build_simulation(rc)
