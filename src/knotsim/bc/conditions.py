@@ -22,82 +22,16 @@ from __future__ import annotations
 import math
 import operator
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from knotsim.bc._kernels import prescribed_reaction
-from knotsim.bc.feedback import LoadCell, RingCut
 from knotsim.bc.grips import GripMethods
-from knotsim.bc.paths import Path, as_path
-from knotsim.bc.rigid import Rotation, as_rotation
+from knotsim.bc.group import _EPS_T, Group, GroupKind, _as_load, _Plan
+from knotsim.bc.paths import as_path
+from knotsim.bc.rigid import as_rotation
 from knotsim.errors import ConfigError
 from knotsim.rods.model import expand_indices
-
-_EPS_T = 1e-12
-
-
-@dataclass
-class Group:
-    """One named boundary condition (see :class:`BoundaryConditions`)."""
-
-    name: str
-    kind: str  # clamp | hold | move | rotate | pin | load_cell | force | moment | spring | ring_twist
-    rod: int
-    nodes: np.ndarray  # global node numbers
-    edges: np.ndarray  # global edge numbers whose angles are prescribed / loaded
-    start: float
-    stop: float
-    fix_twist: bool = False
-    path: Path | None = None
-    twist_angle: Callable[[float], float] | None = None
-    load: Callable[[float], np.ndarray] | None = None
-    anchor: np.ndarray | None = field(default=None, repr=False)
-    anchor_theta: np.ndarray | None = field(default=None, repr=False)
-    anchor_time: float = 0.0
-    #: (3,) bool: the coordinates (x, y, z) the group prescribes (all three except for ``pin``)
-    axes: np.ndarray = field(default_factory=lambda: np.ones(3, np.bool_))
-    #: a turning grip's rotation and its pivot (m) captured at activation
-    rotation: Rotation | None = None
-    pivot: np.ndarray | None = field(default=None, repr=False)
-    #: spring grips: total stiffness (N/m) and the anchor points (n, 3) m at the current time
-    stiffness: float = 0.0
-    target: np.ndarray | None = field(default=None, repr=False)
-    cell: LoadCell | None = None
-    ring: RingCut | None = None
-    #: ``(positions (n, 3), pivot (3,), angle)`` prescribed by the last evaluation (turning grips)
-    current: tuple | None = field(default=None, repr=False)
-    #: the group's unknowns, worked out at its first evaluation (:class:`_Plan`)
-    plan: _Plan | None = field(default=None, repr=False, compare=False)
-
-    @property
-    def prescribed(self) -> bool:
-        return self.kind in ("clamp", "hold", "move", "rotate", "pin", "load_cell")
-
-    def active(self, t: float) -> bool:
-        """Whether the group acts at time ``t`` (s): ``start <= t < stop``, with a tiny tolerance."""
-        return self.start - _EPS_T <= t < self.stop - _EPS_T
-
-
-class _Plan:
-    """The unknowns of a group, kept between steps (:meth:`BoundaryConditions._plan`): worked out
-    anew when the group's ``nodes``, ``edges`` or ``axes`` array is replaced.
-
-    ``xyz`` (3, n) int64 (row ``c``: coordinate ``c`` of the ``n`` nodes), ``pos_dofs`` (3 n,) node
-    by node, ``fixed_pos_dofs`` those of ``axes``, ``theta_dofs`` (e,) the edge angles."""
-
-    __slots__ = ("axes", "axes_idx", "edges", "fixed_pos_dofs", "nodes", "pos_dofs", "theta_dofs", "xyz")
-
-    def __init__(self, model, g: Group):
-        self.nodes, self.edges, self.axes = g.nodes, g.edges, g.axes
-        xyz = model.node_dof[g.nodes][:, None] + np.arange(3)[None, :]
-        self.xyz = np.ascontiguousarray(xyz.T, dtype=np.int64)
-        self.pos_dofs = xyz.ravel()
-        self.fixed_pos_dofs = xyz[:, g.axes].ravel()
-        #: the prescribed coordinates (indices), ``None`` for all three
-        self.axes_idx = None if bool(np.all(g.axes)) else tuple(int(k) for k in np.flatnonzero(g.axes))
-        self.theta_dofs = np.ascontiguousarray(model.edge_theta_dof[g.edges], dtype=np.int64)
-
 
 _NO_DOFS = np.zeros(0, np.int64)
 
@@ -202,7 +136,7 @@ class BoundaryConditions(GripMethods):
         self._check_name(name)
         start, stop = self._check_window(name, start, stop)
         r, g = self._group_nodes(name, rod, nodes)
-        return self._add(Group(name, "clamp", r, g, self._edges_within(g) if twist else np.zeros(0, np.int64),
+        return self._add(Group(name, GroupKind.CLAMP, r, g, self._edges_within(g) if twist else np.zeros(0, np.int64),
                                start, stop, fix_twist=twist))
 
     def hold(self, name: str, rod=None, nodes: Sequence[int] = (0,), start: float = 0.0,
@@ -211,7 +145,7 @@ class BoundaryConditions(GripMethods):
         self._check_name(name)
         start, stop = self._check_window(name, start, stop)
         r, g = self._group_nodes(name, rod, nodes)
-        return self._add(Group(name, "hold", r, g, np.zeros(0, np.int64), start, stop))
+        return self._add(Group(name, GroupKind.HOLD, r, g, np.zeros(0, np.int64), start, stop))
 
     def move(self, name: str, rod=None, nodes: Sequence[int] = (-2, -1), path=None, twist: bool = True,
              start: float = 0.0, stop: float | None = None, rotation=None) -> Group:
@@ -238,7 +172,7 @@ class BoundaryConditions(GripMethods):
             except ConfigError as exc:
                 raise ConfigError(f"bc.{name}.rotation.{exc.field}", str(exc).split(": ", 1)[1]) from None
         r, g = self._group_nodes(name, rod, nodes)
-        return self._add(Group(name, "move", r, g, self._edges_within(g) if twist else np.zeros(0, np.int64),
+        return self._add(Group(name, GroupKind.MOVE, r, g, self._edges_within(g) if twist else np.zeros(0, np.int64),
                                start, stop, fix_twist=twist, path=p, rotation=rot))
 
     def rotate(self, name: str, rod=None, nodes: Sequence[int] = (-2, -1), rate: float | None = None,
@@ -262,7 +196,7 @@ class BoundaryConditions(GripMethods):
         edges = self._edges_within(g)
         if edges.size == 0:
             raise ConfigError(f"bc.{name}.nodes", "rotating needs at least two adjacent nodes (one edge to twist)")
-        return self._add(Group(name, "rotate", r, g, edges, start, stop, fix_twist=True, twist_angle=fn))
+        return self._add(Group(name, GroupKind.ROTATE, r, g, edges, start, stop, fix_twist=True, twist_angle=fn))
 
     def pin(self, name: str, rod=None, nodes: Sequence[int] = (0,), axes: str = "xyz", twist: bool = False,
             start: float = 0.0, stop: float | None = None) -> Group:
@@ -284,7 +218,7 @@ class BoundaryConditions(GripMethods):
                 m = self.model
                 out = np.flatnonzero(m.edge_nodes[:, 0] == g[0])
                 edges = out if out.size else np.flatnonzero(m.edge_nodes[:, 1] == g[0])
-        return self._add(Group(name, "pin", r, g, edges, start, stop, fix_twist=bool(twist), axes=mask))
+        return self._add(Group(name, GroupKind.PIN, r, g, edges, start, stop, fix_twist=bool(twist), axes=mask))
 
     def slide(self, name: str, rod=None, nodes: Sequence[int] = (0,), along=(1.0, 0.0, 0.0), twist: bool = False,
               start: float = 0.0, stop: float | None = None) -> Group:
@@ -306,7 +240,7 @@ class BoundaryConditions(GripMethods):
         start, stop = self._check_window(name, start, stop)
         r, g = self._group_nodes(name, rod, nodes)
         load = _as_load(name, force, (3,))
-        return self._add(Group(name, "force", r, g, np.zeros(0, np.int64), start, stop, load=load))
+        return self._add(Group(name, GroupKind.FORCE, r, g, np.zeros(0, np.int64), start, stop, load=load))
 
     def moment(self, name: str, rod=None, edges: Sequence[int] = (-1,), moment=0.0, start: float = 0.0,
                stop: float | None = None) -> Group:
@@ -321,7 +255,7 @@ class BoundaryConditions(GripMethods):
             raise ConfigError(f"bc.{name}.edges", f"edge index out of range for a rod with {ne} edges: {edges!r}")
         ge = self.model.rod_edge_start[r] + (idx % ne)
         load = _as_load(name, moment, ())
-        return self._add(Group(name, "moment", r, np.zeros(0, np.int64), ge, start, stop, load=load))
+        return self._add(Group(name, GroupKind.MOMENT, r, np.zeros(0, np.int64), ge, start, stop, load=load))
 
     def release(self, name: str, at: float) -> None:
         """End group ``name`` at time ``at`` (s); a released prescribed group keeps its velocity."""
@@ -361,7 +295,7 @@ class BoundaryConditions(GripMethods):
                 g.anchor = None  # not yet active, or released: (re-)activation captures afresh
                 g.target = None
                 continue
-            if g.kind == "spring":
+            if g.kind == GroupKind.SPRING:
                 self._spring_targets(g, t, q_in, t_in)
             elif g.prescribed:
                 plan = self._plan(g)
@@ -380,11 +314,11 @@ class BoundaryConditions(GripMethods):
                         vals += np.asarray(th, float).ravel().tolist()
                 if angles:
                     dofs.append(plan.theta_dofs)
-            elif g.kind == "force":
+            elif g.kind == GroupKind.FORCE:
                 f = g.load(t - g.start) / len(g.nodes)
                 for k in range(3):
                     f_ext[m.node_dof[g.nodes] + k] += f[k]
-            elif g.kind == "moment":
+            elif g.kind == GroupKind.MOMENT:
                 f_ext[m.edge_theta_dof[g.edges]] += g.load(t - g.start)
         return self._fixed_dofs(dofs), np.array(vals, dtype=float), f_ext
 
@@ -427,7 +361,7 @@ class BoundaryConditions(GripMethods):
         :mod:`knotsim.io.checkpoint` (a group that has not captured one saves an empty section)."""
         out = {}
         for g in self.groups.values():
-            if not (g.prescribed or g.kind == "spring"):
+            if not (g.prescribed or g.kind == GroupKind.SPRING):
                 continue
             extra = g.cell.save() if g.cell is not None else {}
             if g.anchor is None:
@@ -449,7 +383,7 @@ class BoundaryConditions(GripMethods):
         were not saved, or whose node count differs, capture their anchors afresh when they act."""
         for name, (meta, arrays) in sections.items():
             g = self.groups.get(name)
-            if g is None or not (g.prescribed or g.kind == "spring") or not meta.get("anchored"):
+            if g is None or not (g.prescribed or g.kind == GroupKind.SPRING) or not meta.get("anchored"):
                 continue
             anchor = np.array(arrays["anchor"], float)
             if anchor.shape != (len(g.nodes), 3):
@@ -490,20 +424,3 @@ def _other_axes(name: str, key: str, direction, keep: bool) -> str:
                                               f"supported), got {direction!r}")
     k = int(nz[0])
     return "".join(c for i, c in enumerate("xyz") if (i != k) == keep)
-
-
-def _as_load(name: str, value, shape):
-    if callable(value):
-        def load(t, f=value):
-            try:
-                out = np.asarray(f(t), dtype=float)
-            except Exception as exc:  # user code
-                raise ConfigError(f"bc.{name}", f"load function failed at t={t}: {exc}") from exc
-            if out.shape != shape or not np.all(np.isfinite(out)):
-                raise ConfigError(f"bc.{name}", f"load function must return shape {shape}, got {out!r}")
-            return out
-        return load
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != shape or not np.all(np.isfinite(arr)):
-        raise ConfigError(f"bc.{name}", f"expected a value of shape {shape} (or a callable of time), got {value!r}")
-    return lambda t, a=arr: a

@@ -12,6 +12,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from knotsim.bc.feedback import LoadCell, RingCut
+from knotsim.bc.group import Group, GroupKind, _as_load
 from knotsim.bc.paths import as_path
 from knotsim.bc.rigid import frame_turn, rotation_matrix
 from knotsim.errors import ConfigError
@@ -67,9 +68,7 @@ class GripMethods:
         if spec.natural_twist is not None:
             base = np.asarray(spec.natural_twist, float) * m.voronoi_rest[stencils]
         weight = m.voronoi_rest[stencils] / m.voronoi_rest[stencils].sum()
-        from knotsim.bc.conditions import Group
-
-        g = Group(name, "ring_twist", r, g_node, np.array([e_in, e_out]), start, stop)
+        g = Group(name, GroupKind.RING_TWIST, r, g_node, np.array([e_in, e_out]), start, stop)
         g.ring = RingCut(int(g_node[0]), s, (e_in, e_out), stencils, base, weight, fn)
         return self._add(g)
 
@@ -93,9 +92,7 @@ class GripMethods:
         except ConfigError as exc:
             raise ConfigError(f"bc.{name}.{exc.field}", str(exc).split(": ", 1)[1]) from None
         r, g = self._group_nodes(name, rod, nodes)
-        from knotsim.bc.conditions import Group
-
-        return self._add(Group(name, "spring", r, g, np.zeros(0, np.int64), start, stop, path=p, stiffness=k))
+        return self._add(Group(name, GroupKind.SPRING, r, g, np.zeros(0, np.int64), start, stop, path=p, stiffness=k))
 
     def load_cell(self, name: str, rod=None, nodes: Sequence[int] = (-2, -1), direction=(1.0, 0.0, 0.0),
                   target=0.0, ki: float | None = None, kp: float = 0.0, max_speed: float | None = None,
@@ -108,8 +105,6 @@ class GripMethods:
         (N/m: the force per displacement of the rest of the model) the force settles with time
         constant about ``1/(ki K)``; explicit feedback needs ``ki K dt < 2``. Logged:
         ``<name>_displacement`` (m), ``<name>_target``, ``<name>_error`` (N)."""
-        from knotsim.bc.conditions import Group, _as_load
-
         self._check_name(name)
         start, stop = self._check_window(name, start, stop)
         d = np.asarray(direction, dtype=float) if np.ndim(direction) == 1 else np.zeros(0)
@@ -127,7 +122,7 @@ class GripMethods:
             raise ConfigError(f"bc.{name}.ki", "ki and kp are both 0: the grip would never move")
         load = _as_load(name, target, ())
         r, g = self._group_nodes(name, rod, nodes)
-        grp = Group(name, "load_cell", r, g, self._edges_within(g) if twist else np.zeros(0, np.int64), start, stop,
+        grp = Group(name, GroupKind.LOAD_CELL, r, g, self._edges_within(g) if twist else np.zeros(0, np.int64), start, stop,
                     fix_twist=twist)
         grp.cell = LoadCell(d / np.linalg.norm(d), load, gains["kp"], gains["ki"], gains["max_speed"])
         return self._add(grp)
@@ -146,7 +141,7 @@ class GripMethods:
 
     @staticmethod
     def _needs_interaction(g) -> bool:
-        return g.kind in ("spring", "load_cell", "ring_twist") or g.rotation is not None
+        return g.kind in (GroupKind.SPRING, GroupKind.LOAD_CELL, GroupKind.RING_TWIST) or g.rotation is not None
 
     def ring_moment(self, name: str, state) -> float:
         """Twisting moment (N m) across the cut of ring-twist group ``name`` in ``state`` (a
@@ -280,7 +275,7 @@ class GripMethods:
 
     def _check_interaction(self, t: float) -> None:
         for g in self.groups.values():
-            if g.kind == "spring" and g.active(t) and not self._interaction_seen:
+            if g.kind == GroupKind.SPRING and g.active(t) and not self._interaction_seen:
                 raise ConfigError(f"bc.{g.name}", "spring grips act through an interaction that this solve does not "
                                                   "have: pass interactions=bcs.interactions() to solve_static "
                                                   "(Simulation and run files add it themselves)")

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from knotsim.bc.group import GroupKind
 from knotsim.rods.frames import compute_tangents, reference_twist, transport_directors
 
 
@@ -32,8 +33,8 @@ class BCInteraction:
     def __init__(self, bcs):
         self.bcs = bcs
         m = bcs.model
-        self.springs = [g for g in bcs.groups.values() if g.kind == "spring"]
-        self.rings = [g for g in bcs.groups.values() if g.kind == "ring_twist"]
+        self.springs = [g for g in bcs.groups.values() if g.kind == GroupKind.SPRING]
+        self.rings = [g for g in bcs.groups.values() if g.kind == GroupKind.RING_TWIST]
         rows = [m.node_dof[g.nodes][:, None] + np.arange(3)[None, :] for g in self.springs]
         self._dofs = np.concatenate(rows).astype(np.int64) if rows else np.zeros((0, 3), np.int64)
         self._blocks = np.zeros((self._dofs.shape[0], 3, 3))

@@ -31,7 +31,7 @@ import numpy as np
 
 from knotsim.errors import ConfigError
 
-__all__ = ["Checkpoint", "read_checkpoint", "write_checkpoint"]
+__all__ = ["Checkpoint", "RodFrame", "read_checkpoint", "write_checkpoint"]
 
 FORMAT = "knotsim-checkpoint-1"
 _STATE_KEYS = ("q", "v", "d1", "tangents", "ref_twist")
@@ -72,9 +72,7 @@ class Checkpoint:
         return meta, arrays
 
     def rod_frames(self):
-        """The saved state as one :class:`~knotsim.io.geometry.RodFrame` per rod."""
-        from knotsim.io.geometry import RodFrame
-
+        """The saved state as one :class:`RodFrame` per rod."""
         lay = self.meta["layout"]
         q = self.arrays["state/q"]
         v = self.arrays["state/v"]
@@ -91,6 +89,27 @@ class Checkpoint:
                                 bool(lay["rod_closed"][r]), float(lay["rod_radius"][r]), name, self.time,
                                 rest[e0:e1].copy() if rest is not None else None))
         return out
+
+
+@dataclass
+class RodFrame:
+    """The physical state of one rod at one frame of an earlier run.
+
+    ``positions (N, 3)`` m; ``edge_angles (N-1,)`` or ``(N,)`` for a ring, rad;
+    ``velocities (N, 3)`` m/s or ``None``; ``reference_directors (n_edges, 3)`` or ``None``;
+    ``closed``; ``radius`` m; ``name``; ``time`` s of the frame; ``rest_edge_lengths (n_edges,)`` m
+    of the run's rope (``None`` when not stored).
+    """
+
+    positions: np.ndarray
+    edge_angles: np.ndarray
+    velocities: np.ndarray | None
+    reference_directors: np.ndarray | None
+    closed: bool
+    radius: float
+    name: str
+    time: float
+    rest_edge_lengths: np.ndarray | None = None
 
 
 def _layout(model) -> dict:

@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from knotsim.errors import ConfigError
+from knotsim.io.checkpoint import RodFrame
 
 __all__ = ["NodeRopes", "RodFrame", "is_run_directory", "read_node_file", "read_node_ropes", "read_run_frame"]
 
@@ -264,27 +265,6 @@ def _stores_state(traj: Path) -> bool:
             return "reference_directors" in f and "velocities" in f
     except OSError:
         return False
-
-
-@dataclass
-class RodFrame:
-    """The physical state of one rod at one frame of an earlier run.
-
-    ``positions (N, 3)`` m; ``edge_angles (N-1,)`` or ``(N,)`` for a ring, rad;
-    ``velocities (N, 3)`` m/s or ``None``; ``reference_directors (n_edges, 3)`` or ``None``;
-    ``closed``; ``radius`` m; ``name``; ``time`` s of the frame; ``rest_edge_lengths (n_edges,)`` m
-    of the run's rope (``None`` when not stored).
-    """
-
-    positions: np.ndarray
-    edge_angles: np.ndarray
-    velocities: np.ndarray | None
-    reference_directors: np.ndarray | None
-    closed: bool
-    radius: float
-    name: str
-    time: float
-    rest_edge_lengths: np.ndarray | None = None
 
 
 def read_run_frame(run_dir: str | os.PathLike, frame: int = -1, field: str = "run") -> list[RodFrame]:
