@@ -199,6 +199,21 @@ def api_markdown() -> str:
     return "\n".join(parts)
 
 
+def test_one_version_source():
+    """The version is written once, in ``knotsim/_version.py``: pyproject.toml reads it (dynamic),
+    ``knotsim.__version__`` re-exports it, and CITATION.cff, which cannot read it, must agree."""
+    import re
+    import tomllib
+
+    from knotsim._version import __version__
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert "version" not in project["project"] and "version" in project["project"]["dynamic"]
+    assert project["tool"]["setuptools"]["dynamic"]["version"] == {"attr": "knotsim._version.__version__"}
+    cff = re.search(r"^version:\s*(\S+)", (ROOT / "CITATION.cff").read_text(), re.M)
+    assert cff is not None and cff.group(1) == __version__
+
+
 def test_api_reference_is_current():
     assert API_DOC.read_text() == api_markdown(), "docs/api.md is out of date: run `python tests/test_docs.py`"
 

@@ -24,16 +24,14 @@ from __future__ import annotations
 
 import importlib
 
+from knotsim._version import __version__
 from knotsim.errors import (
     ConfigError,
     GeometryError,
     KnotsimError,
-    PenetrationError,
     SimulationError,
     ValidityError,
 )
-
-__version__ = "0.1.0"
 
 #: public name -> module that defines it
 _LAZY = {
@@ -78,5 +76,5 @@ def __dir__():
     return sorted(set(globals()) | set(_LAZY))
 
 
-__all__ = ["ConfigError", "GeometryError", "KnotsimError", "PenetrationError", "SimulationError", "ValidityError", "__version__",
+__all__ = ["ConfigError", "GeometryError", "KnotsimError", "SimulationError", "ValidityError", "__version__",
            *sorted(_LAZY)]

@@ -59,7 +59,3 @@ class ValidityError(SimulationError):
         self.quantity = quantity
         self.value = value
         super().__init__(message, last_good_state=last_good_state, time=time)
-
-
-class PenetrationError(SimulationError):
-    """Contact penetration exceeded the configured limit and could not be cured by smaller steps."""

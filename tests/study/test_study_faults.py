@@ -10,7 +10,7 @@ import shutil
 import pytest
 
 from knotsim.errors import ConfigError
-from knotsim.study._worker import KILL_CASE_VAR
+from knotsim.study._faults import KILL_CASE_VAR
 from knotsim.study.runner import run_study
 from knotsim.study.spec import dumps_toml, load_study_spec
 from knotsim.study.store import StudyStore

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from knotsim._version import __version__
 from knotsim.errors import ConfigError
 
 __all__ = ["Checkpoint", "RodFrame", "read_checkpoint", "write_checkpoint"]
@@ -122,8 +123,6 @@ def _layout(model) -> dict:
 def write_checkpoint(path: str | os.PathLike, sim) -> Path:
     """Write the complete state of ``sim`` (a :class:`~knotsim.simulation.Simulation`) to ``path``
     (atomically: a temporary file, then a rename)."""
-    import knotsim
-
     p = Path(path)
     st, sections, end_time = sim.resume_point()
     arrays: dict[str, np.ndarray] = {f"state/{k}": np.asarray(getattr(st, k)) for k in _STATE_KEYS}
@@ -135,7 +134,7 @@ def write_checkpoint(path: str | os.PathLike, sim) -> Path:
         components[prefix] = meta
         for k, a in arrs.items():
             arrays[f"{prefix}/{k}"] = np.asarray(a)
-    meta = {"format": FORMAT, "knotsim_version": knotsim.__version__, "time": float(st.time), "end_time": end_time,
+    meta = {"format": FORMAT, "knotsim_version": __version__, "time": float(st.time), "end_time": end_time,
             "layout": _layout(sim.model), "components": components}
     tmp = p.with_name(f".{p.name}.tmp.npz")
     np.savez(tmp, meta=np.array(json.dumps(meta)), **arrays)

@@ -31,9 +31,9 @@ import subprocess
 import time as _time
 from pathlib import Path
 
-import knotsim
 from knotsim._util.jsonio import json_safe, write_json
 from knotsim._util.toml import write_toml
+from knotsim._version import __version__
 from knotsim.io.frame_fields import frame_field_names, frame_fields
 from knotsim.io.trajectory import TrajectoryWriter
 
@@ -50,7 +50,7 @@ CHECKPOINT_SECONDS = 30.0
 def git_commit() -> str | None:
     """Commit of the knotsim source when it is a git checkout (``git rev-parse HEAD``, 5 s
     timeout), else ``None``."""
-    pkg = Path(knotsim.__file__).resolve().parent
+    pkg = Path(__file__).resolve().parents[1]  # the knotsim package directory
     try:
         out = subprocess.run(["git", "-C", str(pkg), "rev-parse", "HEAD"], capture_output=True, text=True,
                              timeout=5)
@@ -120,7 +120,7 @@ class RunOutput:
     def _info(self, outcome: str) -> dict:
         rows = self.sim.rows[self._rows_start:] if self._rows_start else self.sim.rows
         return {
-            "knotsim_version": knotsim.__version__,
+            "knotsim_version": __version__,
             "git_commit": self._commit,
             "outcome": outcome,
             "wall_time_s": _time.perf_counter() - self._wall0,
@@ -198,4 +198,4 @@ class RunOutput:
 
     def _write_run_file(self) -> None:
         write_toml(self.dir / "run.toml", self.config,
-                   header=f"knotsim {knotsim.__version__} run file, replayed by: knotsim run run.toml -o OUT")
+                   header=f"knotsim {__version__} run file, replayed by: knotsim run run.toml -o OUT")

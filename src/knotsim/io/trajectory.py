@@ -171,7 +171,7 @@ class TrajectoryWriter:
         self._unflushed = 0
         self._last_time = -np.inf
 
-        from knotsim import __version__
+        from knotsim._version import __version__
 
         # chunks of at most about 1 MiB (so a few frames of a huge rod do not allocate 64 frames each)
         per_frame = 8 * 3 * max(self.n_nodes, 1)

@@ -335,7 +335,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
         outcome = status
     if run_status != "completed":
         outcome = f"{outcome}; simulation stopped early"
-    import knotsim
+    from knotsim._version import __version__
 
     summary = {
         "protocol": proto.name,
@@ -357,7 +357,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
         "newton_iterations": int(log["iterations"].sum()) if len(log) else 0,
         "failed_attempts": int(sim.n_failures),
         "notes": notes,
-        "knotsim_version": knotsim.__version__,
+        "knotsim_version": __version__,
         "out_dir": str(out) if out is not None else None,
     }
     summary = json_safe(summary)

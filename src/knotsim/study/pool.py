@@ -105,8 +105,6 @@ class CasePool:
 
     # ------------------------------------------------------------------ manager thread
     def _start_worker(self) -> None:
-        from knotsim.study._worker import worker_main
-
         parent, child = self._ctx.Pipe(duplex=True)
         proc = self._ctx.Process(target=worker_main, args=(child, os.getpid()), daemon=True)
         with _ENV_LOCK:  # inherited by the spawned worker before it imports numpy
@@ -223,3 +221,19 @@ def run_in_worker(conn, fn, args) -> None:
     except BaseException as exc:  # reported to the parent as the case's error
         result = ("error", "".join(traceback.format_exception(exc)))
     conn.send(result)
+
+
+def worker_main(conn, parent_pid: int) -> None:
+    """Main loop of a :class:`CasePool` worker process: receive ``(fn, args)`` on ``conn``, send back
+    the outcome, until ``None`` arrives or the pipe closes."""
+    from knotsim.study._worker import init_worker
+
+    init_worker(parent_pid)
+    while True:
+        try:
+            msg = conn.recv()
+        except (EOFError, OSError):
+            return
+        if msg is None:
+            return
+        run_in_worker(conn, *msg)

@@ -76,8 +76,8 @@ def run_case_atomically(case: dict, study_dir: str | os.PathLike, base_dir: str 
     If ``cases/<id>`` already exists (another worker finished the same case first), the new
     directory is discarded and the existing record returned.
     """
-    from knotsim import __version__
-    from knotsim.study._worker import fault_injection
+    from knotsim._version import __version__
+    from knotsim.study._faults import fault_injection
     from knotsim.study.executors import get_executor
 
     cases_dir = Path(study_dir) / CASES
@@ -190,7 +190,7 @@ def provenance_info() -> dict:
     machine."""
     from importlib import metadata
 
-    import knotsim
+    from knotsim._version import __version__
 
     deps = {}
     for name in _DEPENDENCIES:
@@ -200,7 +200,7 @@ def provenance_info() -> dict:
             deps[name] = None
     git = _git_commit()
     return {
-        "knotsim_version": knotsim.__version__,
+        "knotsim_version": __version__,
         "git_commit": git["commit"],
         "git_dirty": git["dirty"],
         "python": platform.python_version(),

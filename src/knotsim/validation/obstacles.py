@@ -58,20 +58,25 @@ def capstan_ratio(theta: float, mu: float = 0.3, duration: float = 1.5,
                   friction_model: str = "centreline") -> tuple[float, float]:
     """Steady-slip tension ratio T1/T2 and its relative drift over the last 30 % of the run, with
     ``friction_model`` for the post and (wraps beyond π) the rope-rope contact."""
-    import knotsim as ks
+    from knotsim.bc import BoundaryConditions
+    from knotsim.contact.model import Contact, ContactOptions
+    from knotsim.contact.obstacles import Capsule
+    from knotsim.rods import Model, RodSpec
+    from knotsim.simulation import Simulation
+    from knotsim.solver.options import SolverOptions
 
     x, tangent = capstan_rope(theta)
-    rope = ks.RodSpec(x, radius=H, youngs_modulus=1e9, density=1000)
-    model = ks.Model([rope], damping=0.05)
-    post = ks.Capsule(model, "post", a=(0, -0.05, 0), b=(0, 0.05 + 4 * H * theta / (2 * math.pi), 0), radius=R,
+    rope = RodSpec(x, radius=H, youngs_modulus=1e9, density=1000)
+    model = Model([rope], damping=0.05)
+    post = Capsule(model, "post", a=(0, -0.05, 0), b=(0, 0.05 + 4 * H * theta / (2 * math.pi), 0), radius=R,
                       mu=mu, friction_model=friction_model)
-    bcs = ks.BoundaryConditions(model)
+    bcs = BoundaryConditions(model)
     bcs.force("load", rod=0, nodes=[0], force=[0, 0, -1.0])
     bcs.move("pull", rod=0, nodes=[-1], path=list(0.02 * tangent), twist=False)
     inter = [post]
     if theta > math.pi:  # the turns touch each other: rope-rope contact as well
-        inter.append(ks.Contact(model, ks.ContactOptions(mu=mu, delta=1e-4, friction_model=friction_model)))
-    log = ks.Simulation(model, bcs, ks.SolverOptions(dt=2e-3), interactions=inter).run(duration)
+        inter.append(Contact(model, ContactOptions(mu=mu, delta=1e-4, friction_model=friction_model)))
+    log = Simulation(model, bcs, SolverOptions(dt=2e-3), interactions=inter).run(duration)
     late = log[log["time"] > 0.7 * duration]
     f = late[["pull_fx", "pull_fy", "pull_fz"]].to_numpy() @ tangent
     t1 = float(np.mean(f))  # the grip holds the rope back along its leg
@@ -99,18 +104,20 @@ def euler_column(P: float, lateral: float, n: int = 51, length: float = 0.5, h: 
                  **solve):
     """Pinned–pinned column: pin (twist fixed) at node 0, roller at the last node, axial load P (N)
     and a uniform lateral load (N in all). Returns the model and the static result."""
-    import knotsim as ks
+    from knotsim.bc import BoundaryConditions
+    from knotsim.rods import Model, RodSpec
+    from knotsim.solver.static import solve_static
 
     x = np.zeros((n, 3))
     x[:, 0] = np.linspace(0.0, length, n)
-    m = ks.Model([ks.RodSpec(x, radius=h, youngs_modulus=E, density=1000.0)])
-    bcs = ks.BoundaryConditions(m)
+    m = Model([RodSpec(x, radius=h, youngs_modulus=E, density=1000.0)])
+    bcs = BoundaryConditions(m)
     bcs.pin("left", rod=0, nodes=[0], twist=True)
     bcs.pin("right", rod=0, nodes=[-1], axes="yz")
     bcs.force("P", rod=0, nodes=[-1], force=[-P, 0, 0])
     if lateral:
         bcs.force("lateral", rod=0, nodes="all", force=[0, 0, lateral])
-    return m, ks.solve_static(m, bcs, **solve)
+    return m, solve_static(m, bcs, **solve)
 
 
 def euler_pinned(quick: bool = False) -> list[dict]:
@@ -138,32 +145,37 @@ def euler_pinned(quick: bool = False) -> list[dict]:
 
 
 def _floor_rope(mu: float, mass_out: list | None = None):
-    import knotsim as ks
+    from knotsim.contact.obstacles import Plane
+    from knotsim.rods import Model, RodSpec
 
     n, length, h, rho = 41, 0.2, 1e-3, 1300.0
     x = np.zeros((n, 3))
     x[:, 0] = np.linspace(0.0, length, n)
     x[:, 2] = h + 2e-4
-    rope = ks.RodSpec(x, radius=h, youngs_modulus=1e7, density=rho)
-    model = ks.Model([rope], gravity=(0.0, 0.0, -9.81), damping=0.01)
-    floor = ks.Plane(model, "floor", point=(0, 0, 0), normal=(0, 0, 1), mu=mu)
+    rope = RodSpec(x, radius=h, youngs_modulus=1e7, density=rho)
+    model = Model([rope], gravity=(0.0, 0.0, -9.81), damping=0.01)
+    floor = Plane(model, "floor", point=(0, 0, 0), normal=(0, 0, 1), mu=mu)
     if mass_out is not None:
         mass_out.append(rho * math.pi * h * h * length)
-    return ks, model, floor
+    return model, floor
 
 
 def floor_friction(quick: bool = False) -> list[dict]:
     """A rope on a frictional floor (μ = 0.4): dragged by one end at 1 cm/s, the floor's reaction
     while it slides has tangential/normal = μ (2 %); pushed by a force of 0.5 μ m g it sticks (mean
     speed below 1 % of the drag speed), by 1.5 μ m g it slides."""
+    from knotsim.bc import BoundaryConditions, Waypoints
+    from knotsim.simulation import Simulation
+    from knotsim.solver.options import SolverOptions
+
     mu = 0.4
     rows = []
     t0 = time.perf_counter()
-    ks, model, floor = _floor_rope(mu)
-    bcs = ks.BoundaryConditions(model)
-    bcs.move("drag", rod=0, nodes=[-1], path=ks.Waypoints([0.0, 0.3], [[0, 0, 0], [0, 0, 0]],
+    model, floor = _floor_rope(mu)
+    bcs = BoundaryConditions(model)
+    bcs.move("drag", rod=0, nodes=[-1], path=Waypoints([0.0, 0.3], [[0, 0, 0], [0, 0, 0]],
                                                           then_velocity=[0.01, 0.0, 0.0]), twist=False)
-    log = ks.Simulation(model, bcs, ks.SolverOptions(dt=2e-3), interactions=[floor]).run(1.5)
+    log = Simulation(model, bcs, SolverOptions(dt=2e-3), interactions=[floor]).run(1.5)
     late = log[log["time"] > 0.9]
     ratio = float(np.mean(np.abs(late["floor_fx"]) / np.abs(late["floor_fz"])))
     rows.append(_row("floor_friction", "sliding: floor tangential / normal force (mu = 0.4)", ratio, mu,
@@ -171,11 +183,11 @@ def floor_friction(quick: bool = False) -> list[dict]:
     for factor, sticks in ((0.5, True), (1.5, False)):
         t0 = time.perf_counter()
         mass: list = []
-        ks, model, floor = _floor_rope(mu, mass)
+        model, floor = _floor_rope(mu, mass)
         f = factor * mu * mass[0] * 9.81
-        bcs = ks.BoundaryConditions(model)
+        bcs = BoundaryConditions(model)
         bcs.force("push", rod=0, nodes=[-1], force=[f, 0.0, 0.0])
-        sim = ks.Simulation(model, bcs, ks.SolverOptions(dt=2e-3), interactions=[floor])
+        sim = Simulation(model, bcs, SolverOptions(dt=2e-3), interactions=[floor])
         sim.run(0.5)
         x0 = float(np.mean(model.node_positions(sim.state.q)[:, 0]))
         sim.run(0.5)
@@ -193,26 +205,28 @@ def michell(quick: bool = False) -> list[dict]:
     (:meth:`~knotsim.bc.BoundaryConditions.ring_twist`): the planar equilibrium loses stability (the
     lowest eigenvalue of the static Hessian changes sign) at the total twist 2π√3(1 + ν), found by
     bisection, within 2 %."""
-    import knotsim as ks
+    from knotsim.bc import BoundaryConditions
     from knotsim.bc.feedback import michell_twist
+    from knotsim.rods import Model, RodSpec
+    from knotsim.solver.static import solve_static
 
     n, radius = 48, 0.05
     phi = 2 * np.pi * np.arange(n) / n
     x = np.stack([radius * np.cos(phi), radius * np.sin(phi), 0 * phi], 1)
-    rod = ks.RodSpec(x, radius=1e-3, youngs_modulus=1e6, density=1000.0, poisson_ratio=0.5, closed=True,
+    rod = RodSpec(x, radius=1e-3, youngs_modulus=1e6, density=1000.0, poisson_ratio=0.5, closed=True,
                      name="ring")
-    model = ks.Model([rod], damping=0.01)
+    model = Model([rod], damping=0.01)
     tw_c = michell_twist(rod)
 
     def stable(fraction: float) -> bool:
-        b = ks.BoundaryConditions(model)
+        b = BoundaryConditions(model)
         b.pin("a", rod=0, nodes=[0], twist=True)
         b.pin("b", rod=0, nodes=[n // 2], axes="yz")
         b.pin("c", rod=0, nodes=[n // 4], axes="z")
         b.ring_twist("tw", rod=0, total=fraction * tw_c)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return bool(ks.solve_static(model, b, time=1.0, interactions=b.interactions()).stable)
+            return bool(solve_static(model, b, time=1.0, interactions=b.interactions()).stable)
 
     t0 = time.perf_counter()
     lo, hi = 0.8, 1.2

@@ -216,7 +216,11 @@ def plane_roll(*, incline: float = 0.0, torque: float = 0.0, mu: float = 0.2, fr
     end: 1 for rolling without slip), ``mass`` (kg), ``I_ratio`` (``I/(m h²)`` of the discrete rod),
     ``normal_force`` (N) and the ``log``.
     """
-    import knotsim as ks
+    from knotsim.bc import BoundaryConditions
+    from knotsim.contact.obstacles import Plane
+    from knotsim.rods import Model, RodSpec
+    from knotsim.simulation import Simulation
+    from knotsim.solver.options import SolverOptions
 
     c = PLANE_ROD
     n, length, h = c["n_nodes"], c["length"], c["radius"]
@@ -224,16 +228,16 @@ def plane_roll(*, incline: float = 0.0, torque: float = 0.0, mu: float = 0.2, fr
     x[:, 0] = np.linspace(0.0, length, n)
     x[:, 2] = h + 2e-5
     g = 9.81
-    rope = ks.RodSpec(x, radius=h, youngs_modulus=c["E"], density=c["density"])
-    model = ks.Model([rope], gravity=(0.0, -g * math.sin(incline), -g * math.cos(incline)), damping=0.0)
-    plane = ks.Plane(model, "plane", point=(0, 0, 0), normal=(0, 0, 1), mu=mu, friction_model=friction_model)
-    bcs = ks.BoundaryConditions(model)
+    rope = RodSpec(x, radius=h, youngs_modulus=c["E"], density=c["density"])
+    model = Model([rope], gravity=(0.0, -g * math.sin(incline), -g * math.cos(incline)), damping=0.0)
+    plane = Plane(model, "plane", point=(0, 0, 0), normal=(0, 0, 1), mu=mu, friction_model=friction_model)
+    bcs = BoundaryConditions(model)
     if torque:
         # the moment of each edge in proportion to its rest length: a uniform torque per length
         share = model.rest_length / float(np.sum(model.rest_length))
         for e in range(model.n_edges):  # set-up, once
             bcs.moment(f"torque{e}", rod=0, edges=[e], moment=torque * float(share[e]), start=settle)
-    sim = ks.Simulation(model, bcs, ks.SolverOptions(dt=dt), interactions=[plane])
+    sim = Simulation(model, bcs, SolverOptions(dt=dt), interactions=[plane])
     ts, vy, spin = [], [], []
     nodes_y = model.node_dof + 1
 
