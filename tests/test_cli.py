@@ -316,7 +316,7 @@ def test_kernels_cached_reads_numba_cache_index(tmp_path):
 @pytest.mark.parametrize("spare", [0.0, 1.5])
 def test_compile_notice_before_compiling(monkeypatch, capsys, spare):
     import knotsim._warmup as W
-    from knotsim._cli_output import announce_compile
+    from knotsim.cli.output import announce_compile
 
     calls = []
     monkeypatch.setattr(W, "kernels_cached", lambda **kw: False)

@@ -8,9 +8,9 @@ import pytest
 from click.testing import CliRunner
 from scipy.io import savemat
 
+from knotsim.cli.protocols import pull
 from knotsim.errors import ConfigError
 from knotsim.io.geometry import read_node_file, read_node_ropes
-from knotsim.protocols.cli import pull
 from knotsim.protocols.pipeline import build_protocol_run
 from knotsim.runspec import RunSpec, build_run
 

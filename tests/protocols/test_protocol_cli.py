@@ -7,9 +7,9 @@ import json
 import pytest
 from click.testing import CliRunner
 
-from knotsim._cli_output import RUN_FILES, default_dir, prepare_output
+from knotsim.cli.output import RUN_FILES, default_dir, prepare_output
+from knotsim.cli.protocols import knots, pull, tie
 from knotsim.errors import ConfigError
-from knotsim.protocols.cli import knots, pull, tie
 from knotsim.protocols.params import COMMON_DEFAULTS, PARAM_INFO, describe_params
 from knotsim.protocols.registry import protocols
 

@@ -60,7 +60,7 @@ def test_study_executor_reads_a_result(tmp_path, monkeypatch):
 def test_pull_json_prints_the_summary(tmp_path):
     from click.testing import CliRunner
 
-    from knotsim.protocols.cli import pull
+    from knotsim.cli.protocols import pull
 
     args = ["overhand_n1", "-o", str(tmp_path / "o"), "--json", "--no-figures"]
     for k, v in TINY.items():

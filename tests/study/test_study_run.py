@@ -19,8 +19,8 @@ import pytest
 from click.testing import CliRunner
 
 import knotsim.study as study_api
+from knotsim.cli.study import animate, report, study
 from knotsim.errors import ConfigError
-from knotsim.study.cli import animate, report, study
 from knotsim.study.runner import run_study
 from knotsim.study.spec import dumps_toml
 
@@ -112,7 +112,7 @@ def test_dask_local_cluster_gives_the_same_table(local_run, study_file, tmp_path
 def test_kill9_then_resume_gives_the_same_table(local_run, study_file, tmp_path):
     _, df_local, _ = local_run
     out = tmp_path / "study"
-    cmd = [sys.executable, "-m", "knotsim.study.cli", "study", str(study_file), "-o", str(out), "--workers", "1",
+    cmd = [sys.executable, "-m", "knotsim.cli", "study", str(study_file), "-o", str(out), "--workers", "1",
            "--quiet"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     cases = out / "cases"
@@ -268,7 +268,7 @@ def test_report_plot_metrics_option(local_run, tmp_path):
     """``knotsim report --metric NAME`` plots only the named metrics; an unknown name is an error
     naming it (exit code 2) that leaves the existing figures alone."""
     out0, df, _ = local_run
-    from knotsim.study.cli import report
+    from knotsim.cli.study import report
 
     res = CliRunner().invoke(report, [str(out0), "--metric", "steps"])
     assert res.exit_code == 0, res.output

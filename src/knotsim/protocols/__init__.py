@@ -19,7 +19,7 @@ next to ``trajectory.h5`` / ``log.parquet`` / ``run.json`` when ``out_dir`` is g
 
 import importlib
 
-# Names load on first use (PEP 562), so that ``knotsim.protocols.cli`` (imported by ``knotsim --help``)
+# Names load on first use (PEP 562), so that ``knotsim.cli.protocols`` (imported by ``knotsim --help``)
 # does not pull in pandas, scipy and the protocol modules.
 _LAZY = {"LoadingProtocol": "base", "ProtocolResult": "base", "RunContext": "base",
          "build_protocol_run": "pipeline", "run_protocol": "pipeline",

@@ -1,25 +1,7 @@
-"""The ``knotsim`` command.
+"""The main group of the ``knotsim`` command and its commands ``run``, ``validate``, ``warmup``,
+``plot``, ``export-vtk`` and ``render``; the other commands are registered from the modules of
+this package (see :mod:`knotsim.cli`)."""
 
-::
-
-    knotsim run CONFIG.toml [-o OUTDIR] [--overwrite] [--duration S] [--quiet]
-    knotsim run [CONFIG.toml] --from RUN_DIR [-o OUTDIR] [--duration S]
-    knotsim pull KNOT | --geometry PATH -o OUTDIR [--protocol P] [--set K=V] [--quick] [--save-config F]
-    knotsim tie SEQUENCE -o OUTDIR | --list
-    knotsim validate [CASE ...] [--quick] [--json-only]
-    knotsim warmup [--serial]
-    knotsim plot RUN_DIR [-o FILE]
-    knotsim export-vtk RUN_DIR -o DIR [--every N] [--ascii]
-    knotsim render RUN_DIR [--frames last|first|all|I,J,..] [-o DIR] [--view iso|top|front|ELEV,AZIM]
-    knotsim --version
-
-Exit codes: 0 success; 1 validation failures; 2 bad input (:class:`~knotsim.errors.ConfigError`,
-:class:`~knotsim.errors.GeometryError`, unknown names, usage errors); 3 the simulation failed
-(:class:`~knotsim.errors.SimulationError`). Errors are printed on stderr without a traceback.
-
-Adding a command: write a function decorated with ``@main.command()`` and ``@_exit_codes``; import
-heavy modules inside the function so that ``knotsim --help`` stays fast.
-"""
 
 from __future__ import annotations
 
@@ -31,18 +13,16 @@ from pathlib import Path
 
 import click
 
-import knotsim
-
-#: Exit codes.
-from knotsim._cli_errors import EXIT_BAD_INPUT, EXIT_FAILED_CHECKS
-from knotsim._cli_errors import error as _error
-from knotsim._cli_errors import exit_codes as _exit_codes
-from knotsim._cli_output import OUTPUT_DIR, announce_compile, default_dir, prepare_output
+from knotsim._version import __version__
+from knotsim.cli.errors import EXIT_BAD_INPUT, EXIT_FAILED_CHECKS
+from knotsim.cli.errors import error as _error
+from knotsim.cli.errors import exit_codes as _exit_codes
+from knotsim.cli.output import OUTPUT_DIR, announce_compile, default_dir, prepare_output
 from knotsim.errors import SimulationError
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(knotsim.__version__, "--version", prog_name="knotsim")
+@click.version_option(__version__, "--version", prog_name="knotsim")
 def main():
     """knotsim: discrete elastic rods in frictional contact -- tie knots and measure their strength."""
 
@@ -326,17 +306,14 @@ def render(run_dir: Path, frames: str, outdir: Path | None, view: str, size: str
 
 
 def _register_subcommands() -> None:
-    """Commands owned by other packages (their heavy imports happen inside the commands)."""
-    from knotsim.protocols.cli import knots, pull, tie
-    from knotsim.study.cli import animate, report, study
+    """The commands of the other modules of this package (their heavy imports happen inside the
+    commands)."""
+    from knotsim.cli.protocols import knots, pull, tie
+    from knotsim.cli.study import animate, report, study
+    from knotsim.cli.view import view
 
-    for command in (knots, pull, tie, study, report, animate):
+    for command in (knots, pull, tie, study, report, animate, view):
         main.add_command(command)
-    main.add_command(importlib.import_module("knotsim.viz.cli").view)
 
 
 _register_subcommands()
-
-
-if __name__ == "__main__":  # pragma: no cover
-    main()

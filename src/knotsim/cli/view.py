@@ -1,4 +1,4 @@
-"""Command ``knotsim view`` (registered on the main group by :mod:`knotsim.cli`)::
+"""Command ``knotsim view`` (registered on the main group by :mod:`knotsim.cli.commands`)::
 
     knotsim view RUN_DIR --html FILE [--max-frames N] [--color-by FIELD]   # HTML page (the view extra)
     knotsim view RUN_DIR                                # interactive window (the render extra, a display)
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import click
 
-from knotsim._cli_errors import EXIT_BAD_INPUT, error
-from knotsim._cli_errors import exit_codes as _exit_codes
+from knotsim.cli.errors import EXIT_BAD_INPUT, error
+from knotsim.cli.errors import exit_codes as _exit_codes
 
 
 @click.command("view")

@@ -1,5 +1,5 @@
 """Commands ``knotsim knots``, ``knotsim pull`` and ``knotsim tie`` (registered on the main group by
-:mod:`knotsim.cli` with ``main.add_command``)::
+:mod:`knotsim.cli.commands`)::
 
     knotsim knots
     knotsim pull KNOT | --geometry PATH [--matrices A,B] [--protocol P] [--set key=value ...] [-o OUT]
@@ -8,7 +8,7 @@
     knotsim tie SEQUENCE [-o OUT] [--overwrite] | --list
 
 Without ``-o`` the output goes to ``runs/<knot>-<protocol>`` (``runs/tie-<sequence>``); a directory
-that is not empty is refused unless ``--overwrite`` (see :mod:`knotsim._cli_output`). ``pull``
+that is not empty is refused unless ``--overwrite`` (see :mod:`knotsim.cli.output`). ``pull``
 writes ``force.png`` (:func:`knotsim.viz.plot.plot_run`) and renders of the first and last frames
 (``render/``) unless ``--no-figures``.
 
@@ -23,9 +23,9 @@ from pathlib import Path
 
 import click
 
-from knotsim._cli_errors import EXIT_SIMULATION
-from knotsim._cli_errors import exit_codes as _exit_codes
-from knotsim._cli_output import OUTPUT_DIR, announce_compile, default_dir, prepare_output
+from knotsim.cli.errors import EXIT_SIMULATION
+from knotsim.cli.errors import exit_codes as _exit_codes
+from knotsim.cli.output import OUTPUT_DIR, announce_compile, default_dir, prepare_output
 
 
 @click.command()

@@ -1,5 +1,4 @@
-"""Exit codes and error handling shared by every ``knotsim`` command (kept apart from
-:mod:`knotsim.cli` so that command modules elsewhere can import it without a cycle)."""
+"""Exit codes and error handling shared by every ``knotsim`` command."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""Commands ``study``, ``report`` and ``animate`` (registered in the ``knotsim`` command)::
+"""Commands ``study``, ``report`` and ``animate`` (registered on the main group by
+:mod:`knotsim.cli.commands`)::
 
     knotsim study STUDY.toml -o STUDY_DIR [--workers N] [--scheduler tcp://HOST:PORT] [--resume]
                   [--retry-failed] [--dry-run] [--quiet]
@@ -6,7 +7,7 @@
     knotsim animate RUN_DIR [--case ID] -o OUT.gif|OUT.mp4 [--fps F] [--every N] [--size WxH]
 
 Exit codes as in :mod:`knotsim.cli`: 0 success; 1 some cases of the study failed; 2 bad input;
-3 a simulation failed. They can also be run standalone: ``python -m knotsim.study.cli study ...``.
+3 a simulation failed.
 """
 
 from __future__ import annotations
@@ -16,9 +17,8 @@ from pathlib import Path
 
 import click
 
-from knotsim._cli_errors import EXIT_BAD_INPUT, EXIT_SIMULATION  # noqa: F401  (documented codes)
-from knotsim._cli_errors import EXIT_FAILED_CHECKS as EXIT_FAILED_CASES
-from knotsim._cli_errors import exit_codes as _exit_codes
+from knotsim.cli.errors import EXIT_FAILED_CHECKS as EXIT_FAILED_CASES
+from knotsim.cli.errors import exit_codes as _exit_codes
 
 __all__ = ["animate", "report", "study"]
 
@@ -102,7 +102,7 @@ def study(study_file: Path, study_dir: Path, workers: int | None, scheduler: str
         msg += f" ({len(reused)} already finished, {len(todo)} to run)"
     click.echo(f"{msg} on {where}; results in {study_dir}/")
     if todo and not scheduler:  # compile once here rather than in every worker process
-        from knotsim._cli_output import announce_compile
+        from knotsim.cli.output import announce_compile
 
         announce_compile(contact=True)
     bar = _Bar(enabled=not quiet and sys.stderr.isatty())
@@ -182,16 +182,3 @@ def animate(run_dir: Path, case_id: str | None, out: Path, fps: float, every: in
         v = (elev, azim)
     path = animate_run(run_dir, out, fps=fps, every=every, size=(w, h), backend=backend, view=v)
     click.echo(str(path))
-
-
-@click.group()
-def _standalone():
-    """knotsim study commands (standalone entry point)."""
-
-
-_standalone.add_command(study)
-_standalone.add_command(report)
-_standalone.add_command(animate)
-
-if __name__ == "__main__":  # pragma: no cover
-    _standalone()
