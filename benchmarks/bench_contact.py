@@ -28,10 +28,10 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from knotsim.bc import BoundaryConditions  # noqa: E402
-from knotsim.contact.model import ContactInteraction, ContactSettings  # noqa: E402
+from knotsim.contact.model import Contact, ContactOptions  # noqa: E402
 from knotsim.rods import Model, RodSpec  # noqa: E402
 from knotsim.simulation import Simulation  # noqa: E402
-from knotsim.solver.stepper import SolverSettings  # noqa: E402
+from knotsim.solver.stepper import SolverOptions  # noqa: E402
 
 H = 1.6e-3
 
@@ -71,8 +71,8 @@ def build(n_nodes: int, dt: float, mu: float):
     bcs = BoundaryConditions(m)
     bcs.move("left", nodes=[0, 1], path=list(-0.006 * axis))
     bcs.move("right", nodes=[-2, -1], path=list(0.006 * axis))
-    contact = ContactInteraction(m, ContactSettings(mu=mu))
-    sim = Simulation(m, bcs, SolverSettings(dt=dt), interactions=[contact])
+    contact = Contact(m, ContactOptions(mu=mu))
+    sim = Simulation(m, bcs, SolverOptions(dt=dt), interactions=[contact])
     return sim, contact, source
 
 

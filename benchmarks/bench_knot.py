@@ -98,10 +98,10 @@ def build_old(x: np.ndarray, args):
     API), so that an older checkout can be timed with this script (``PYTHONPATH=CHECKOUT/src``):
     the ends are clamped until ``wait`` and then move at 6 mm/s (a displacement function)."""
     from knotsim.bc import BoundaryConditions
-    from knotsim.contact.model import ContactInteraction, ContactSettings
+    from knotsim.contact.model import Contact, ContactOptions
     from knotsim.rods import Model, RodSpec
     from knotsim.simulation import Simulation
-    from knotsim.solver.stepper import SolverSettings
+    from knotsim.solver.stepper import SolverOptions
 
     model = Model([RodSpec(x, radius=1.6e-3, youngs_modulus=0.18e6, density=1180.0)], damping=0.01)
     axis = (x[-1] - x[0]) / np.linalg.norm(x[-1] - x[0])
@@ -109,8 +109,8 @@ def build_old(x: np.ndarray, args):
     for name, nodes, sign in (("left", [0, 1], -1.0), ("right", [-2, -1], 1.0)):
         u = sign * 6e-3 * axis
         bcs.move(name, nodes=nodes, path=lambda t, u=u: max(0.0, t - args.wait) * u)
-    contact = ContactInteraction(model, ContactSettings(mu=args.mu))
-    return Simulation(model, bcs, SolverSettings(dt=args.dt), interactions=[contact])
+    contact = Contact(model, ContactOptions(mu=args.mu))
+    return Simulation(model, bcs, SolverOptions(dt=args.dt), interactions=[contact])
 
 
 def main() -> None:

@@ -23,7 +23,7 @@ import numpy as np  # noqa: E402
 from knotsim.bc import BoundaryConditions  # noqa: E402
 from knotsim.rods import Model, RodSpec  # noqa: E402
 from knotsim.simulation import Simulation  # noqa: E402
-from knotsim.solver.stepper import SolverSettings  # noqa: E402
+from knotsim.solver.stepper import SolverOptions  # noqa: E402
 
 
 def build(n_nodes: int, dt: float):
@@ -41,7 +41,7 @@ def build(n_nodes: int, dt: float):
     # twist the right end too: a separate rotate would overlap the moving group, so twist through
     # the edge angle of the moving group's edge with a moment instead
     bcs.moment("twist", edges=[-1], moment=2e-6)
-    return Simulation(m, bcs, SolverSettings(dt=dt))
+    return Simulation(m, bcs, SolverOptions(dt=dt))
 
 
 def run(n_nodes: int, steps: int, dt: float = 1e-3) -> dict:

@@ -1,6 +1,6 @@
 """High-level driver: adaptive time stepping, logging, output files.
 
->>> sim = Simulation(model, bcs, SolverSettings(dt=1e-3))
+>>> sim = Simulation(model, bcs, SolverOptions(dt=1e-3))
 >>> log = sim.run(duration=2.0)            # pandas DataFrame, one row per step
 """
 
@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from knotsim.errors import ConfigError, SimulationError, ValidityError
-from knotsim.solver.options import SolverSettings
+from knotsim.solver.options import SolverOptions
 from knotsim.solver.state import State, initial_state
 from knotsim.solver.steplog import StepLog
 from knotsim.solver.stepper import StepFailure, Stepper, StepResult
@@ -31,7 +31,7 @@ class Simulation:
     ----------
     model: :class:`~knotsim.rods.Model`.
     bcs: :class:`~knotsim.bc.BoundaryConditions` or ``None``.
-    settings: :class:`~knotsim.solver.stepper.SolverSettings` (``dt`` is the target step, s).
+    options: :class:`~knotsim.solver.options.SolverOptions` (``dt`` is the target step, s).
     interactions: contact/friction terms (see :class:`~knotsim.solver.stepper.Interaction`).
     state: initial :class:`~knotsim.solver.state.State` (default: from the rod specs).
     config: the run description (a plain dict with the tables of a run file) this simulation was
@@ -41,21 +41,21 @@ class Simulation:
         names the stage its step belongs to (column ``stage``).
     """
 
-    def __init__(self, model, bcs=None, settings: SolverSettings | None = None, interactions=(),
+    def __init__(self, model, bcs=None, options: SolverOptions | None = None, interactions=(),
                  state: State | None = None, *, config: dict | None = None,
                  stages: Sequence[tuple[str, float, float]] = ()):
         self.model = model
         self.bcs = bcs
-        self.settings = settings or SolverSettings()
+        self.options = options or SolverOptions()
         own = bcs.interactions() if hasattr(bcs, "interactions") else []  # spring grips, feedback logs
         self.stepper = Stepper(model, [*interactions, *(i for i in own if all(i is not j for j in interactions))],
-                               self.settings)
+                               self.options)
         self.state = state.copy() if state is not None else initial_state(model)
         #: the validity guards (:mod:`knotsim.solver.validity`), checked on every converged step
-        self.validity = ValidityMonitor(model, self.settings.max_axial_strain, self.settings.max_energy_gain,
+        self.validity = ValidityMonitor(model, self.options.max_axial_strain, self.options.max_energy_gain,
                                         self.stepper.force_tol, self.stepper.interactions)
-        self.dt = self.settings.dt
-        self.dt_min = self.settings.dt_min or self.settings.dt / 1024.0
+        self.dt = self.options.dt
+        self.dt_min = self.options.dt_min or self.options.dt / 1024.0
         self._easy = 0
         self._retry_cooldown = 0
         #: ``(state, component states)`` just before a final step that was shortened to land on the
@@ -116,13 +116,13 @@ class Simulation:
             if not shortened:
                 self._before_short_step = None
             res.attempts = attempts
-            self._retry_cooldown = self.settings.grow_after if attempts > 1 else max(0, self._retry_cooldown - 1)
-            if res.iterations <= self.settings.easy_iterations:
+            self._retry_cooldown = self.options.grow_after if attempts > 1 else max(0, self._retry_cooldown - 1)
+            if res.iterations <= self.options.easy_iterations:
                 self._easy += 1
             else:
                 self._easy = 0
-            if self._easy >= self.settings.grow_after and self.dt < self.settings.dt:
-                self.dt = min(2.0 * self.dt, self.settings.dt)
+            if self._easy >= self.options.grow_after and self.dt < self.options.dt:
+                self.dt = min(2.0 * self.dt, self.options.dt)
                 self._easy = 0
             self.rows.append(self._row(res))
             return res

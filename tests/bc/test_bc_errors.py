@@ -9,7 +9,7 @@ from knotsim.bc import BoundaryConditions, Waypoints
 from knotsim.errors import ConfigError
 from knotsim.rods import Model, RodSpec
 from knotsim.simulation import Simulation
-from knotsim.solver.stepper import SolverSettings
+from knotsim.solver.stepper import SolverOptions
 
 N = 11
 L = 0.1
@@ -136,7 +136,7 @@ def test_released_group_keeps_its_velocity():
     bcs = BoundaryConditions(model)
     bcs.move("all", nodes=list(range(N)), path=v)
     bcs.release("all", at=0.01)
-    sim = Simulation(model, bcs, SolverSettings(dt=dt))
+    sim = Simulation(model, bcs, SolverOptions(dt=dt))
     x0 = _node(sim, -1)
     sim.advance(0.01)
     x_release = _node(sim, -1)
@@ -158,7 +158,7 @@ def test_released_end_keeps_moving():
     bcs.clamp("left", nodes=[0, 1])
     bcs.move("right", nodes=[-2, -1], path=[0.0, 0.05, 0.0])
     bcs.release("right", at=0.01)
-    sim = Simulation(model, bcs, SolverSettings(dt=1e-3))
+    sim = Simulation(model, bcs, SolverOptions(dt=1e-3))
     sim.advance(0.009)  # the last step with the group active ends at 0.009 (window [0, 0.01))
     y_release = _node(sim, -1)[1]
     assert y_release == pytest.approx(0.05 * 0.009, rel=1e-9)
@@ -172,7 +172,7 @@ def test_group_starting_later_captures_position_at_activation():
     bcs = BoundaryConditions(model)
     bcs.clamp("left", nodes=[0, 1])
     bcs.hold("tip", nodes=[-1], start=0.02)
-    sim = Simulation(model, bcs, SolverSettings(dt=1e-3))
+    sim = Simulation(model, bcs, SolverOptions(dt=1e-3))
     x0 = _node(sim, -1)
     sim.advance(0.02)
     x_start = _node(sim, -1)
@@ -191,7 +191,7 @@ def test_clamp_then_move_same_nodes():
     bcs.clamp("left", nodes=[0, 1])
     bcs.clamp("right", nodes=[-2, -1], stop=0.005)
     bcs.move("pull", nodes=[-2, -1], path=[1e-2, 0.0, 0.0], start=0.005)
-    sim = Simulation(model, bcs, SolverSettings(dt=1e-3))
+    sim = Simulation(model, bcs, SolverOptions(dt=1e-3))
     x0 = _node(sim, -1)
     sim.advance(0.005)
     np.testing.assert_allclose(_node(sim, -1), x0, atol=1e-12)
@@ -205,7 +205,7 @@ def test_from_current_waypoints_reach_absolute_targets_from_wherever_the_group_i
     from knotsim.bc import Waypoints
     from knotsim.rods import Model, RodSpec
     from knotsim.simulation import Simulation
-    from knotsim.solver.stepper import SolverSettings
+    from knotsim.solver.stepper import SolverOptions
 
     x = np.zeros((11, 3))
     x[:, 0] = np.linspace(0.0, 0.1, 11)
@@ -216,7 +216,7 @@ def test_from_current_waypoints_reach_absolute_targets_from_wherever_the_group_i
     bcs.move("lift", nodes=[-1], path=[0.0, 0.0, 0.05], stop=0.1)
     bcs.move("grip", nodes=[-1], start=0.1, path=Waypoints([0.1, 0.2], [[0.09, 0.01, 0.0], [0.09, 0.01, 0.0]],
                                                            absolute=True, from_current=True))
-    sim = Simulation(m, bcs, SolverSettings(dt=5e-3))
+    sim = Simulation(m, bcs, SolverOptions(dt=5e-3))
     sim.run(0.1, progress=False)
     start = m.node_positions(sim.state.q)[-1].copy()
     assert start[2] == pytest.approx(0.00475, rel=1e-6)  # lift active for steps ending before 0.1 s

@@ -12,16 +12,16 @@ import pytest
 
 from knotsim.bc import BoundaryConditions
 from knotsim.contact.assembly import contact_evaluate_regularized, contact_evaluate_regularized_surface
-from knotsim.contact.model import BLOCK_BAND_FRACTION, ContactInteraction, ContactSettings
+from knotsim.contact.model import BLOCK_BAND_FRACTION, Contact, ContactOptions
 from knotsim.rods import Model, RodSpec
 from knotsim.simulation import Simulation
 from knotsim.solver.state import initial_state
-from knotsim.solver.stepper import SolverSettings
+from knotsim.solver.stepper import SolverOptions
 
 R = 1e-3  # rod radius, m
 
 
-class AllBlocks(ContactInteraction):
+class AllBlocks(Contact):
     """Reference: a Jacobian block for every candidate pair (zero blocks for pairs out of range)."""
 
     def _set_blocks(self, mask):
@@ -46,7 +46,7 @@ def dense(n, dofs, blocks):
 
 
 def start(model, settings):
-    ci = ContactInteraction(model, settings)
+    ci = Contact(model, settings)
     st = initial_state(model)
     ci.begin_step(st, 1e-3)
     return ci, st
@@ -55,7 +55,7 @@ def start(model, settings):
 @pytest.mark.parametrize("mu", [0.0, 0.4])
 def test_same_jacobian_with_fewer_blocks(mu):
     m = crossing(1.8e-3)
-    ci, st = start(m, ContactSettings(mu=mu))
+    ci, st = start(m, ContactOptions(mu=mu))
     q = st.q.copy()
     q[m.node_dof[m.rod_node_start[1]:]] += 2e-5  # B slides a little: friction is on
     r = np.zeros(m.n_dofs)
@@ -68,15 +68,15 @@ def test_same_jacobian_with_fewer_blocks(mu):
     k = ci.pair_dofs.shape[0]
     every = np.zeros((k, w, w))
     kernel = contact_evaluate_regularized_surface if mu > 0.0 else contact_evaluate_regularized
-    kernel(q, st.q, 1e-3, ci.pair_dofs, ci.pair_d, ci.pair_mu, ci.settings.delta,
-           ci.settings.nu, ci.k_c, np.zeros(m.n_dofs), True, every, np.arange(k),
+    kernel(q, st.q, 1e-3, ci.pair_dofs, ci.pair_d, ci.pair_mu, ci.options.delta,
+           ci.options.nu, ci.k_c, np.zeros(m.n_dofs), True, every, np.arange(k),
            np.empty(k), np.empty((k, 12)), np.empty((k, 12)), ci.pair_eta, ci.pair_theta, ci.pair_h,
            np.zeros((k, 4)))
     every_dofs = np.concatenate([ci.pair_dofs, ci.pair_theta], axis=1) if mu > 0.0 else ci.pair_dofs
     # every pair left out has a zero block and is beyond the band
     out = ~ci._block_mask
     assert not np.any(every[out])
-    band = ci.settings.delta + BLOCK_BAND_FRACTION * ci.settings.margin
+    band = ci.options.delta + BLOCK_BAND_FRACTION * ci.options.margin
     assert np.all(ci._last.delta[out] >= ci.pair_d[out] + band)
     np.testing.assert_array_equal(dense(m.n_dofs, dofs, blocks), dense(m.n_dofs, every_dofs, every))
 
@@ -84,7 +84,7 @@ def test_same_jacobian_with_fewer_blocks(mu):
 def test_pair_coming_into_range_gets_a_block_before_assembly():
     gap = 1.8e-3  # Δ − d: in the list (below delta + margin), beyond delta + band
     m = crossing(2 * R + gap)
-    ci, st = start(m, ContactSettings())
+    ci, st = start(m, ContactOptions())
     assert ci.pairs.shape[0] > 0
     r = np.zeros(m.n_dofs)
     ci.evaluate(st.q, st.q, 1e-3, r, True)
@@ -94,7 +94,7 @@ def test_pair_coming_into_range_gets_a_block_before_assembly():
     q[m.node_dof[m.rod_node_start[1]:] + 2] -= gap - 2e-4  # a Newton iterate in contact (gap 0.2 mm)
     _, blocks = ci.evaluate(q, st.q, 1e-3, r, True)
     assert ci.pattern_version > version and ci.block_dofs().shape[0] > 0
-    full = AllBlocks(m, ContactSettings())
+    full = AllBlocks(m, ContactOptions())
     full.begin_step(st, 1e-3)
     r2 = np.zeros(m.n_dofs)
     _, blocks2 = full.evaluate(q, st.q, 1e-3, r2, True)
@@ -120,15 +120,15 @@ def drop(cls, mu):
                for x, name in ((xa, "A"), (xb, "B"))], gravity=(0.0, 0.0, -9.81), damping=0.02)
     bcs = BoundaryConditions(m)
     bcs.clamp("A", rod="A", nodes=list(range(41)))
-    ci = cls(m, ContactSettings(mu=mu))
-    sim = Simulation(m, bcs, SolverSettings(dt=1e-3), interactions=[ci])
+    ci = cls(m, ContactOptions(mu=mu))
+    sim = Simulation(m, bcs, SolverOptions(dt=1e-3), interactions=[ci])
     log = sim.run(0.12, progress=False)
     return sim.state.q.copy(), log, ci
 
 
 @pytest.mark.parametrize("mu", [0.0, 0.3])
 def test_trajectory_same_as_with_every_candidate_block(mu):
-    q, log, ci = drop(ContactInteraction, mu)
+    q, log, ci = drop(Contact, mu)
     q_ref, log_ref, ci_ref = drop(AllBlocks, mu)
     assert log["n_contacts"].max() >= 1  # B landed on A
     assert ci.block_dofs().shape[0] < ci_ref.block_dofs().shape[0]
@@ -139,10 +139,10 @@ def test_trajectory_same_as_with_every_candidate_block(mu):
 
 def test_checkpoint_restores_the_block_set():
     m = crossing(1.8e-3)
-    ci, st = start(m, ContactSettings())
+    ci, st = start(m, ContactOptions())
     ci.evaluate(st.q, st.q, 1e-3, np.zeros(m.n_dofs), True)
     meta, arrays = ci.save_state()
-    other = ContactInteraction(m, ContactSettings())
+    other = Contact(m, ContactOptions())
     other.load_state(meta, arrays)
     np.testing.assert_array_equal(other.block_dofs(), ci.block_dofs())
     assert other.block_dofs().shape[0] > 0

@@ -1,4 +1,4 @@
-"""ContactInteraction: assembled residual/Jacobian against finite differences, broad phase against
+"""Contact: assembled residual/Jacobian against finite differences, broad phase against
 brute force, statistics, settings validation and the config hook.
 
 FD: the pair set is fixed by one ``begin_step``; ``q_prev`` and ``dt`` are fixed; central
@@ -16,7 +16,7 @@ import pytest
 
 from knotsim.contact.broadphase import segment_distance
 from knotsim.contact.distance import CASE_EE, edge_edge_distance
-from knotsim.contact.model import ContactInteraction, ContactSettings, contact_from_config
+from knotsim.contact.model import Contact, ContactOptions, contact_from_config
 from knotsim.errors import ConfigError
 from knotsim.rods import Model, RodSpec
 from knotsim.solver.state import initial_state
@@ -73,7 +73,7 @@ def fd_check(ci, q, q_prev, dt, h=H):
 
 
 def prepared(model, settings, q=None, v=None, dt=1e-3):
-    ci = ContactInteraction(model, settings)
+    ci = Contact(model, settings)
     st = initial_state(model)
     if q is not None:
         st.q = q
@@ -87,7 +87,7 @@ def prepared(model, settings, q=None, v=None, dt=1e-3):
 @pytest.mark.parametrize("z_gap", [1.9e-3, 2.2e-3, 1.7e-3])
 def test_contact_gradient_and_jacobian_match_fd_frictionless(z_gap, smoothing):
     m = two_rods(z_gap)
-    ci, st = prepared(m, ContactSettings(stiffness_mode="constant", stiffness=50.0, parallel_smoothing=smoothing))
+    ci, st = prepared(m, ContactOptions(stiffness_mode="constant", stiffness=50.0, parallel_smoothing=smoothing))
     assert ci.pairs.shape[0] >= 1
     q = st.q.copy()
     r0, err, scale = fd_check(ci, q, q, 1e-3)
@@ -113,7 +113,7 @@ def test_contact_with_friction_matches_fd(speed, z_gap, smoothing, friction_mode
     q_prev[nb] -= speed * dt
     q_prev[m.node_dof] += 0.1 * speed * dt * rng.standard_normal(m.n_nodes)
     q_prev[m.edge_theta_dof] += 10 * speed * dt * rng.standard_normal(m.n_edges)  # spins (rad)
-    settings = ContactSettings(stiffness_mode="constant", stiffness=50.0, mu=0.4, parallel_smoothing=smoothing,
+    settings = ContactOptions(stiffness_mode="constant", stiffness=50.0, mu=0.4, parallel_smoothing=smoothing,
                                friction_model=friction_model)
     ci, _ = prepared(m, settings)
     r0, err, scale = fd_check(ci, st.q, q_prev, dt, h=1e-11)
@@ -122,7 +122,7 @@ def test_contact_with_friction_matches_fd(speed, z_gap, smoothing, friction_mode
     if speed > 0:
         assert np.any(ff != 0.0)
     # with mu = 0 the friction part vanishes and the residual is the gradient of the energy
-    ci0, _ = prepared(m, ContactSettings(stiffness_mode="constant", stiffness=50.0, parallel_smoothing=smoothing))
+    ci0, _ = prepared(m, ContactOptions(stiffness_mode="constant", stiffness=50.0, parallel_smoothing=smoothing))
     r1 = np.zeros(m.n_dofs)
     ci0.evaluate(st.q, q_prev, dt, r1, False)
     r2 = np.zeros(m.n_dofs)
@@ -147,7 +147,7 @@ def test_parallel_rods_with_parallel_smoothing_match_fd(mu, angle):
     dt = 1e-3
     q_prev = st.q.copy()
     q_prev[m.node_dof[m.rod_node_start[1]:]] -= 3e-5 * dt
-    settings = ContactSettings(stiffness_mode="constant", stiffness=50.0, mu=mu, parallel_smoothing=2e-6)
+    settings = ContactOptions(stiffness_mode="constant", stiffness=50.0, mu=mu, parallel_smoothing=2e-6)
     ci, _ = prepared(m, settings)
     r0, err, scale = fd_check(ci, st.q, q_prev, dt, h=1e-11 if mu else H)
     assert np.count_nonzero(ci._last.delta < 2 * R + settings.delta) >= 4  # several parallel pairs in contact
@@ -158,7 +158,7 @@ def test_parallel_smoothing_per_pair_eta_and_zero_is_exact():
     """η of a pair is 8 d ℓ / (l̄_a² + l̄_b²); ℓ = 0 gives the exact segment distance."""
     m = two_rods(1.95e-3, angle=0.0)
     st = initial_state(m)
-    ci, _ = prepared(m, ContactSettings(parallel_smoothing=3e-6))
+    ci, _ = prepared(m, ContactOptions(parallel_smoothing=3e-6))
     la = m.rest_length[ci.pairs[:, 0]]
     lb = m.rest_length[ci.pairs[:, 1]]
     np.testing.assert_allclose(ci.pair_eta, 8 * ci.pair_d * 3e-6 / (la**2 + lb**2))
@@ -167,7 +167,7 @@ def test_parallel_smoothing_per_pair_eta_and_zero_is_exact():
     exact = np.array([edge_edge_distance(st.q[d])[0] for d in ci.pair_dofs])
     bias = ci._last.delta - exact
     assert np.all(bias >= -1e-15) and np.all(bias <= 3e-6 * ci.pair_d / exact * (1 + 1e-9)) and bias.max() > 1e-8
-    ci0, _ = prepared(m, ContactSettings(parallel_smoothing=0.0))
+    ci0, _ = prepared(m, ContactOptions(parallel_smoothing=0.0))
     assert not ci0.pair_eta.any()
     ci0.evaluate(st.q, st.q, 1e-3, r, False)
     np.testing.assert_array_equal(ci0._last.delta, exact)
@@ -202,7 +202,7 @@ def test_first_side_flip_detects_pass_through_only():
 
 def test_check_rejects_pass_through():
     m = two_rods(2.1e-3)
-    ci, st = prepared(m, ContactSettings())
+    ci, st = prepared(m, ContactOptions())
     q_prev = st.q.copy()
     q = st.q.copy()
     nb = m.node_dof[m.rod_node_start[1]:]
@@ -217,7 +217,7 @@ def test_check_rejects_pass_through():
 
 def test_energy_consistent_with_gradient():
     m = two_rods(1.95e-3, angle=1.0, tilt=0.1)
-    ci, st = prepared(m, ContactSettings(stiffness_mode="constant", stiffness=50.0))
+    ci, st = prepared(m, ContactOptions(stiffness_mode="constant", stiffness=50.0))
     q = st.q
     r = np.zeros(m.n_dofs)
     e0, _ = ci.evaluate(q, q, 1e-3, r, False)
@@ -258,7 +258,7 @@ def test_broad_phase_equals_brute_force(self_contact):
     line = np.stack([s, 0 * s + 0.009, 0 * s + 0.004], 1)
     m = Model([RodSpec(coil, radius=1e-3, youngs_modulus=1e6, density=1e3),
                RodSpec(line, radius=0.7e-3, youngs_modulus=1e6, density=1e3)])
-    settings = ContactSettings(self_contact=self_contact)
+    settings = ContactOptions(self_contact=self_contact)
     ci, st = prepared(m, settings)
     ref = brute_force_pairs(m, st.q, settings.delta + settings.margin, self_contact)
     assert ref.shape[0] > 5
@@ -275,7 +275,7 @@ def test_stats_of_single_crossing():
     z = 1.98e-3
     m = two_rods(z)
     kc = 80.0
-    ci, st = prepared(m, ContactSettings(stiffness_mode="constant", stiffness=kc))
+    ci, st = prepared(m, ContactOptions(stiffness_mode="constant", stiffness=kc))
     assert ci.check(st.q) is None
     s = ci.stats()
     assert s["n_contacts"] == 1
@@ -294,7 +294,7 @@ def test_stats_of_single_crossing():
 
 def test_check_rejects_penetration_and_stale_broad_phase():
     m = two_rods(1.9e-3)
-    ci, st = prepared(m, ContactSettings())
+    ci, st = prepared(m, ContactOptions())
     k0 = ci.k_c
     q = st.q.copy()
     nb = m.node_dof[m.rod_node_start[1]:]
@@ -308,7 +308,7 @@ def test_check_rejects_penetration_and_stale_broad_phase():
     assert ci.check(st.q) is None
     # a rod out of the list (gap 6 mm > d + delta + margin) moved into contact during the step
     m = two_rods(6e-3)
-    ci, st = prepared(m, ContactSettings())
+    ci, st = prepared(m, ContactOptions())
     assert ci.pairs.shape[0] == 0
     q = st.q.copy()
     q[nb + 2] -= 4.1e-3
@@ -325,7 +325,7 @@ def test_check_rejects_penetration_and_stale_broad_phase():
 
 def test_no_pairs_far_apart():
     m = two_rods(0.05)
-    ci, st = prepared(m, ContactSettings())
+    ci, st = prepared(m, ContactOptions())
     assert ci.pairs.shape == (0, 2) and ci.block_dofs().shape == (0, 12)
     r = np.zeros(m.n_dofs)
     e, blocks = ci.evaluate(st.q, st.q, 1e-3, r, True)
@@ -337,10 +337,10 @@ def test_no_pairs_far_apart():
 
 def test_mu_table_per_rod_pair():
     m = two_rods()
-    ci = ContactInteraction(m, ContactSettings(mu={("A", "B"): 0.3, ("A", "A"): 0.1, "default": 0.05}))
+    ci = Contact(m, ContactOptions(mu={("A", "B"): 0.3, ("A", "A"): 0.1, "default": 0.05}))
     np.testing.assert_allclose(ci._mu_table, [[0.1, 0.3], [0.3, 0.05]])
     with pytest.raises(ConfigError, match="contact.mu"):
-        ContactInteraction(m, ContactSettings(mu={("A", "C"): 0.3}))
+        Contact(m, ContactOptions(mu={("A", "C"): 0.3}))
 
 
 @pytest.mark.parametrize("kwargs, field", [
@@ -358,14 +358,14 @@ def test_mu_table_per_rod_pair():
 ])
 def test_settings_validation_names_field(kwargs, field):
     with pytest.raises(ConfigError) as exc:
-        ContactSettings(**kwargs).validate()
+        ContactOptions(**kwargs).validate()
     assert exc.value.field.startswith(field)
 
 
 def test_contact_from_config():
     m = two_rods()
     (ci,) = contact_from_config(m, {"delta": 4e-4, "mu": {"default": 0.2, "A,B": 0.5}, "margin": 1e-3})
-    assert ci.name == "contact" and ci.settings.delta == 4e-4
+    assert ci.name == "contact" and ci.options.delta == 4e-4
     np.testing.assert_allclose(ci._mu_table, [[0.2, 0.5], [0.5, 0.2]])
     with pytest.raises(ConfigError) as exc:
         contact_from_config(m, {"delt": 1e-3})
@@ -377,14 +377,14 @@ def test_contact_from_config():
 def test_finely_meshed_straight_rod_has_no_self_contact():
     """Edges i and i + 3 of a straight rod with l = 1 mm and h = 2 mm are closer than 2h; they must
     not count as contact (same rule as the knot generator: (|i-j| - 1) l >= 1.5 d)."""
-    from knotsim.contact.model import ContactInteraction, ContactSettings
+    from knotsim.contact.model import Contact, ContactOptions
     from knotsim.rods import Model, RodSpec
     from knotsim.solver.state import initial_state
 
     x = np.zeros((201, 3))
     x[:, 0] = np.linspace(0.0, 0.2, 201)
     m = Model([RodSpec(x, radius=2e-3, youngs_modulus=1e6, density=1000.0)])
-    ci = ContactInteraction(m, ContactSettings())
+    ci = Contact(m, ContactOptions())
     st = initial_state(m)
     ci.begin_step(st, 1e-3)
     assert ci._rod_min_gap[0] == 7
@@ -399,7 +399,7 @@ def test_describe_near_names_pair_gap_and_angle():
     edges, and flags nearly parallel edges (where the exact edge-edge distance has a kink)."""
     import numpy as np
 
-    from knotsim.contact.model import ContactInteraction, ContactSettings
+    from knotsim.contact.model import Contact, ContactOptions
     from knotsim.rods import Model, RodSpec
     from knotsim.solver.state import initial_state
 
@@ -412,7 +412,7 @@ def test_describe_near_names_pair_gap_and_angle():
     crossing = rod([[0.05, -0.05 + 0.01 * k, 3.3e-3] for k in range(11)], "c")
     for other, parallel_expected in ((parallel, True), (crossing, False)):
         m = Model([base, other])
-        contact = ContactInteraction(m, ContactSettings())
+        contact = Contact(m, ContactOptions())
         state = initial_state(m)
         contact.begin_step(state, 1e-3)
         text = contact.describe_near(state.q, 5)

@@ -1,4 +1,4 @@
-"""Physics of ContactInteraction in full simulations (coarse rods, each case a few seconds).
+"""Physics of Contact in full simulations (coarse rods, each case a few seconds).
 
 Measured values at the time of writing (default contact settings, δ = 0.5 mm, h = 1 mm):
 
@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 
 from knotsim.bc import BoundaryConditions
-from knotsim.contact.model import ContactInteraction, ContactSettings
+from knotsim.contact.model import Contact, ContactOptions
 from knotsim.rods import Model
 from knotsim.simulation import Simulation
-from knotsim.solver.stepper import SolverSettings
+from knotsim.solver.stepper import SolverOptions
 from knotsim.validation.contact import DELTA, H, friction_run, line, pressed_crossing_rods, rod
 
 
@@ -40,7 +40,7 @@ def test_pressed_crossing_rods_no_penetration_and_equal_opposite_reactions():
 
 @pytest.mark.parametrize("dt", [5e-4, 1e-3, 2e-3])
 def test_friction_threshold_stick_and_slip(dt):
-    nu = ContactSettings().nu
+    nu = ContactOptions().nu
     for ratio in (0.5, 0.9):
         _, v_end, _, log = friction_run(ratio, dt)
         assert abs(v_end) < nu, (ratio, v_end)
@@ -68,8 +68,8 @@ def drop_case(tilt_deg=0.0, mu=0.0, T=0.3, damping=0.02, friction_model="surface
     m = Model([rod(a, name="A"), rod(b, name="B")], gravity=(0.0, 0.0, -9.81), damping=damping)
     bcs = BoundaryConditions(m)
     bcs.clamp("A", rod="A", nodes=list(range(11)))  # all nodes: a fixed obstacle
-    ci = ContactInteraction(m, ContactSettings(mu=mu, friction_model=friction_model))
-    sim = Simulation(m, bcs, SolverSettings(dt=1e-3), interactions=[ci])
+    ci = Contact(m, ContactOptions(mu=mu, friction_model=friction_model))
+    sim = Simulation(m, bcs, SolverOptions(dt=1e-3), interactions=[ci])
     landing = []
 
     def first_contact(s, _res):

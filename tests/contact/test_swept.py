@@ -12,13 +12,13 @@ import pytest
 
 from knotsim.bc import BoundaryConditions
 from knotsim.contact.assembly import pair_dofs_from_edges
-from knotsim.contact.model import ContactInteraction, ContactSettings
+from knotsim.contact.model import Contact, ContactOptions
 from knotsim.contact.swept import MET, TURNED, first_crossing, swept_box_pairs
 from knotsim.geometry.exclusion import index_distance
 from knotsim.rods import Model, RodSpec
 from knotsim.simulation import Simulation
 from knotsim.solver.state import initial_state
-from knotsim.solver.stepper import SolverSettings
+from knotsim.solver.stepper import SolverOptions
 
 R = 1e-3
 
@@ -36,7 +36,7 @@ def test_check_rejects_a_pass_through_between_far_positions():
     """B jumps from 12 mm above A to 12 mm below it: far outside the pair list at both ends of the
     step (the end-position tests see nothing), but the centre lines crossed in between."""
     m = crossed_rods(12e-3)
-    ci = ContactInteraction(m, ContactSettings())
+    ci = Contact(m, ContactOptions())
     st = initial_state(m)
     ci.begin_step(st, 0.1)
     assert ci.pairs.shape[0] == 0
@@ -65,8 +65,8 @@ def test_fast_pass_through_is_retried_and_the_rope_stays_on_its_side():
     bcs.clamp("a_right", rod="A", nodes=[-2, -1])
     bcs.move("b_left", rod="B", nodes=[0, 1], path=[0.0, 0.0, -0.24])
     bcs.move("b_right", rod="B", nodes=[-2, -1], path=[0.0, 0.0, -0.24])
-    contact = ContactInteraction(m, ContactSettings())
-    sim = Simulation(m, bcs, SolverSettings(dt=0.1), interactions=[contact])
+    contact = Contact(m, ContactOptions())
+    sim = Simulation(m, bcs, SolverOptions(dt=0.1), interactions=[contact])
     log = sim.run(0.1, progress=False)
     assert sim.n_failures >= 1 and len(log) > 1
     x = m.node_positions(sim.state.q)
@@ -74,7 +74,7 @@ def test_fast_pass_through_is_retried_and_the_rope_stays_on_its_side():
     mid_b = x[m.rod_node_start[1] + 8]
     assert mid_b[2] > mid_a[2] + 1.5 * R  # B above A: no pass-through
     assert x[m.rod_node_start[1], 2] == pytest.approx(-12e-3, abs=1e-9)  # B's ends got to -12 mm
-    assert log["max_penetration_ratio"].max() <= ContactSettings().penetration_limit
+    assert log["max_penetration_ratio"].max() <= ContactOptions().penetration_limit
 
 
 # ------------------------------------------------------------------------------------------ kernels

@@ -53,10 +53,10 @@ def test_chained_checks_are_the_plain_checks_bitwise():
 
 def test_contact_hands_distances_on_only_for_the_same_list_and_start():
     from knotsim.bc import BoundaryConditions
-    from knotsim.contact.model import ContactInteraction, ContactSettings
+    from knotsim.contact.model import Contact, ContactOptions
     from knotsim.rods import Model, RodSpec
     from knotsim.simulation import Simulation
-    from knotsim.solver.stepper import SolverSettings
+    from knotsim.solver.stepper import SolverOptions
 
     s = np.linspace(-0.04, 0.04, 9)
     a = np.stack([s, 0 * s, 0 * s], 1)
@@ -67,8 +67,8 @@ def test_contact_hands_distances_on_only_for_the_same_list_and_start():
     bcs.clamp("a", rod=0, nodes=[0, 1])
     bcs.clamp("a2", rod=0, nodes=[-2, -1])
     bcs.move("b", rod=1, nodes=[3, 4, 5], path=[0.0, 0.0, -2e-3])
-    ci = ContactInteraction(model, ContactSettings(mu=0.2))
-    sim = Simulation(model, bcs, SolverSettings(dt=2e-3), interactions=[ci])
+    ci = Contact(model, ContactOptions(mu=0.2))
+    sim = Simulation(model, bcs, SolverOptions(dt=2e-3), interactions=[ci])
     used = []
     orig = ci._pass_through_listed
 

@@ -120,7 +120,7 @@ def test_defaults_and_int_values():
     del c["solver"]
     cfg = load_config(c)
     assert cfg.model.rods[0].youngs_modulus == 1e7
-    assert cfg.solver.dt == 1e-3  # SolverSettings default
+    assert cfg.solver.dt == 1e-3  # SolverOptions default
     assert cfg.output_interval is None
     np.testing.assert_allclose(cfg.model.gravity, 0.0)
 
@@ -240,7 +240,7 @@ def test_waypoints_absolute_at_centroid_ok():
 
 
 def test_contact_table_builds_the_contact_interaction():
-    from knotsim.contact.model import ContactInteraction
+    from knotsim.contact.model import Contact
 
     c = base()
     c["contact"] = {"delta": 1e-4, "mu": 0.3}
@@ -249,9 +249,9 @@ def test_contact_table_builds_the_contact_interaction():
     assert cfg.contact == {"delta": 1e-4, "mu": 0.3, "friction_model": "surface"}
     assert cfg.raw["contact"]["friction_model"] == "surface"
     (inter,) = cfgmod.contact_interactions(cfg.model, cfg.contact)
-    assert isinstance(inter, ContactInteraction)
-    assert inter.settings.delta == 1e-4 and inter.settings.mu == 0.3
-    assert inter.settings.friction_model == "surface"
+    assert isinstance(inter, Contact)
+    assert inter.options.delta == 1e-4 and inter.options.mu == 0.3
+    assert inter.options.friction_model == "surface"
     c["contact"] = {"mu": 0.3, "friction_model": "centreline"}
     assert load_config(c).contact["friction_model"] == "centreline"
 

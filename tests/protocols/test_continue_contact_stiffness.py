@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from knotsim.contact.model import ContactInteraction, ContactSettings
+from knotsim.contact.model import Contact, ContactOptions
 from knotsim.errors import ConfigError
 from knotsim.io.checkpoint import read_checkpoint
 from knotsim.protocols.pipeline import build_protocol_run
@@ -22,11 +22,11 @@ def _rod_model():
 
 def test_initial_stiffness_starts_the_adaptive_stiffness_but_not_below_the_floor():
     m = _rod_model()
-    floor = ContactInteraction(m, ContactSettings(mu=0.0)).k_c
-    assert ContactInteraction(m, ContactSettings(mu=0.0, initial_stiffness=10 * floor)).k_c == pytest.approx(10 * floor)
-    assert ContactInteraction(m, ContactSettings(mu=0.0, initial_stiffness=0.1 * floor)).k_c == pytest.approx(floor)
+    floor = Contact(m, ContactOptions(mu=0.0)).k_c
+    assert Contact(m, ContactOptions(mu=0.0, initial_stiffness=10 * floor)).k_c == pytest.approx(10 * floor)
+    assert Contact(m, ContactOptions(mu=0.0, initial_stiffness=0.1 * floor)).k_c == pytest.approx(floor)
     with pytest.raises(ConfigError) as err:
-        ContactSettings(mu=0.0, initial_stiffness=-1.0).validate()
+        ContactOptions(mu=0.0, initial_stiffness=-1.0).validate()
     assert "initial_stiffness" in err.value.field
 
 

@@ -10,7 +10,7 @@ from knotsim.errors import SimulationError
 from knotsim.rods import Model, RodSpec
 from knotsim.simulation import Simulation
 from knotsim.solver.static import solve_static
-from knotsim.solver.stepper import SolverSettings
+from knotsim.solver.stepper import SolverOptions
 from knotsim.validation.cases import cantilever, helix
 
 
@@ -39,7 +39,7 @@ def test_hanging_rod_reaction_dynamic_settles_to_weight():
     m = Model([RodSpec(x, radius=1e-3, youngs_modulus=1e6, density=1000.0)], gravity=(0, 0, -9.81), damping=0.05)
     bcs = BoundaryConditions(m)
     bcs.clamp("top", nodes=[0, 1])
-    sim = Simulation(m, bcs, SolverSettings(dt=1e-3))
+    sim = Simulation(m, bcs, SolverOptions(dt=1e-3))
     log = sim.run(0.2, progress=False)
     weight = m.total_mass() * 9.81
     assert log["top_fz"].iloc[-1] == pytest.approx(weight, rel=1e-3)
@@ -63,7 +63,7 @@ def test_released_rod_conserves_momentum_and_energy_never_grows():
     m = Model([rod])
     bcs = BoundaryConditions(m)
     bcs.move("end", nodes=[0, 1], path=[0.0, 0.02, 0.0], stop=0.01)
-    sim = Simulation(m, bcs, SolverSettings(dt=1e-3))
+    sim = Simulation(m, bcs, SolverOptions(dt=1e-3))
     sim.run(0.01, progress=False)
     p0 = None
     energies = []
@@ -86,7 +86,7 @@ def test_pull_both_ends_reactions_equal_and_opposite():
     bcs = BoundaryConditions(m)
     bcs.move("left", nodes=[0, 1], path=[-0.005, 0.0, 0.0])
     bcs.move("right", nodes=[-2, -1], path=[0.005, 0.0, 0.0])
-    sim = Simulation(m, bcs, SolverSettings(dt=2e-3))
+    sim = Simulation(m, bcs, SolverOptions(dt=2e-3))
     log = sim.run(0.2, progress=False)
     left = log[["left_fx", "left_fy", "left_fz"]].to_numpy()[-1]
     right = log[["right_fx", "right_fy", "right_fz"]].to_numpy()[-1]
@@ -106,7 +106,7 @@ def test_banded_and_sparse_solvers_agree():
         bcs = BoundaryConditions(m)
         bcs.clamp("left", nodes=[0, 1])
         bcs.rotate("right", nodes=[-2, -1], rate=3.0)
-        sim = Simulation(m, bcs, SolverSettings(dt=2e-3, linear_solver=solver))
+        sim = Simulation(m, bcs, SolverOptions(dt=2e-3, linear_solver=solver))
         sim.run(0.05, progress=False)
         results.append(sim.state.q.copy())
     np.testing.assert_allclose(results[0], results[1], atol=1e-9)
@@ -119,7 +119,7 @@ def test_closed_ring_runs_with_sparse_solver():
     m = Model([RodSpec(x, radius=1e-3, youngs_modulus=1e6, density=1e3, closed=True)], gravity=(0, 0, -9.81))
     bcs = BoundaryConditions(m)
     bcs.hold("pin", nodes=[0])
-    sim = Simulation(m, bcs, SolverSettings(dt=1e-3))
+    sim = Simulation(m, bcs, SolverOptions(dt=1e-3))
     log = sim.run(0.02, progress=False)
     assert sim.stepper.last_solver == "sparse"
     assert log["iterations"].max() < 10
@@ -132,7 +132,7 @@ def test_too_large_step_recovers_by_halving():
     bcs = BoundaryConditions(m)
     bcs.clamp("left", nodes=[0, 1])
     bcs.move("right", nodes=[-2, -1], path=lambda t: [0.0, 0.0, 0.05 * np.sin(200 * t)])
-    sim = Simulation(m, bcs, SolverSettings(dt=0.05, max_iterations=6))
+    sim = Simulation(m, bcs, SolverOptions(dt=0.05, max_iterations=6))
     sim.run(0.1, progress=False)
     assert sim.n_failures > 0
     assert sim.state.time == pytest.approx(0.1)
@@ -145,7 +145,7 @@ def test_impossible_case_raises_with_last_good_state():
     bcs.clamp("left", nodes=[0, 1])
     # the right end is yanked 1 m away instantly at t = 0.01 s: no step size can follow it
     bcs.move("right", nodes=[-2, -1], path=lambda t: [0.0, 0.0, 1.0 if t > 0.01 else 0.0])
-    sim = Simulation(m, bcs, SolverSettings(dt=5e-3, dt_min=5e-3 / 8, max_iterations=5))
+    sim = Simulation(m, bcs, SolverOptions(dt=5e-3, dt_min=5e-3 / 8, max_iterations=5))
     with pytest.raises(SimulationError) as info:
         sim.run(0.05, progress=False)
     err = info.value
@@ -157,7 +157,7 @@ def test_impossible_case_raises_with_last_good_state():
 def test_failure_message_says_where_the_residual_is_largest():
     """A failed solve names the rod and node of its largest residual (and, with contact, the nearest
     contact pair and the angle between its edges)."""
-    from knotsim.contact.model import ContactInteraction, ContactSettings
+    from knotsim.contact.model import Contact, ContactOptions
 
     cross = RodSpec(np.array([[0.1, -0.1 + 0.01 * k, 3.3e-3] for k in range(21)]), radius=1.6e-3,
                     youngs_modulus=0.18e6, density=1180.0, name="cross")
@@ -165,8 +165,8 @@ def test_failure_message_says_where_the_residual_is_largest():
     bcs = BoundaryConditions(m)
     bcs.clamp("left", rod=0, nodes=[0, 1])
     bcs.move("yank", rod=0, nodes=[-2, -1], path=lambda t: [0.0, 0.0, 1.0 if t > 0.01 else 0.0])
-    contact = ContactInteraction(m, ContactSettings(mu=0.3))
-    sim = Simulation(m, bcs, SolverSettings(dt=5e-3, dt_min=5e-3 / 4, max_iterations=3), interactions=[contact])
+    contact = Contact(m, ContactOptions(mu=0.3))
+    sim = Simulation(m, bcs, SolverOptions(dt=5e-3, dt_min=5e-3 / 4, max_iterations=3), interactions=[contact])
     with pytest.raises(SimulationError) as info:
         sim.run(0.05, progress=False)
     msg = str(info.value)
@@ -181,7 +181,7 @@ def test_huge_end_force_is_a_simulation_error_not_a_traceback():
     bcs = BoundaryConditions(m)
     bcs.clamp("left", nodes=[0, 1])
     bcs.force("push", nodes=[-1], force=(-1e9, 0.0, 0.0))
-    sim = Simulation(m, bcs, SolverSettings(dt=1e-3, dt_min=1e-3 / 16))
+    sim = Simulation(m, bcs, SolverOptions(dt=1e-3, dt_min=1e-3 / 16))
     with pytest.raises(SimulationError) as info:
         sim.run(0.01, progress=False)
     assert sim.n_failures >= 4

@@ -1,6 +1,6 @@
 """Diagnostics of the rope-rope contact: overlapping rods at the start, the pair near a stalled node.
 
-Functions of a :class:`~knotsim.contact.model.Contact` (its model, settings, pairs and last
+Functions of a :class:`~knotsim.contact.model.Contact` (its model, options, pairs and last
 evaluation); the contact's methods of the same names call them.
 """
 
@@ -30,13 +30,13 @@ def check_start(contact, q) -> None:
     ra, rb = m.edge_radius[pairs[:, 0]], m.edge_radius[pairs[:, 1]]
     depth = (ra + rb - d) / np.minimum(ra, rb)
     k = int(np.argmax(depth))
-    if depth[k] > contact.settings.penetration_limit:
+    if depth[k] > contact.options.penetration_limit:
         a, b = (int(v) for v in pairs[k])
         name = lambda e: f"rod {m.rod_names[m.edge_rod[e]]!r} edge {int(m.edge_local[e])}"  # noqa: E731
         raise GeometryError(
             f"the rods overlap at the start: {name(a)} and {name(b)} are {d[k]:.4g} m apart, "
             f"{depth[k]:.2f} radii closer than contact ({ra[k] + rb[k]:.4g} m; limit "
-            f"{contact.settings.penetration_limit} radii); move them apart, scale the geometry, or use a "
+            f"{contact.options.penetration_limit} radii); move them apart, scale the geometry, or use a "
             f"smaller radius")
 
 
@@ -63,7 +63,7 @@ def describe_near(contact, q, node: int) -> str:
         return math.degrees(math.acos(min(1.0, c)))
 
     # a nearly parallel pair in contact is the likely culprit; otherwise the closest pair
-    touching = [int(p) for p, g in zip(has, gaps, strict=True) if g < contact.settings.delta]
+    touching = [int(p) for p, g in zip(has, gaps, strict=True) if g < contact.options.delta]
     parallel = [p for p in touching if angle_of(p) < 1.0]
     p = parallel[0] if parallel else int(has[np.argmin(gaps)])
     angle = angle_of(p)
@@ -71,7 +71,7 @@ def describe_near(contact, q, node: int) -> str:
     text = (f"in contact with a gap of {ev.delta[p] - contact.pair_d[p]:.3g} m between edges {a} and {b} "
             f"({angle:.3g} deg apart)")
     if angle < 1.0:
-        if contact.settings.parallel_smoothing > 0.0:
+        if contact.options.parallel_smoothing > 0.0:
             text += "; nearly parallel edges in contact"
         else:
             text += ("; nearly parallel edges in contact: with contact.parallel_smoothing = 0 the edge-edge "

@@ -1,9 +1,9 @@
 """Contact and friction between rod edges as a stepper interaction (IMC + smooth Coulomb friction).
 
->>> contact = ContactInteraction(model, ContactSettings(mu=0.3))
->>> sim = Simulation(model, bcs, SolverSettings(dt=2.5e-3), interactions=[contact])
+>>> contact = Contact(model, ContactOptions(mu=0.3))
+>>> sim = Simulation(model, bcs, SolverOptions(dt=2.5e-3), interactions=[contact])
 
-Candidate pairs (:meth:`ContactInteraction.begin_step`) come from the broad phase: every pair of
+Candidate pairs (:meth:`Contact.begin_step`) come from the broad phase: every pair of
 edges closer than ``h_a + h_b + delta + margin``. The list is kept as a Verlet list: rebuilt when
 the nodes' *drift* since the last build exceeds ``margin / 2``, reused otherwise (the Jacobian
 pattern then stays the same from step to step). The drift is ``max_i |u_i - c|`` over the node
@@ -13,7 +13,7 @@ within the cut-off before the drift exceeds ``margin / 2``, while a common trans
 rods costs nothing; it is fixed during a Newton solve. During Newton
 every candidate pair contributes the IMC energy ``k_c E(Δ)`` (:mod:`knotsim.contact.potential`) and,
 when ``μ > 0``, the fully implicit smooth Coulomb friction (:mod:`knotsim.contact.friction`). A
-converged step is rejected (:meth:`ContactInteraction.check`) when a pair penetrates deeper than
+converged step is rejected (:meth:`Contact.check`) when a pair penetrates deeper than
 ``penetration_limit`` times the smaller radius of the pair, when two edges passed through each other
 during the step (a swept test over the straight motion of the step, :mod:`knotsim.contact.swept`,
 so a rope cannot jump through another however far it moved), or when the list went stale: once the
@@ -59,7 +59,7 @@ from knotsim.contact.assembly import (
     pair_dofs_from_edges,
 )
 from knotsim.contact.broadphase import find_candidate_pairs, node_drift
-from knotsim.contact.options import ContactOptions, ContactSettings, StiffnessMode
+from knotsim.contact.options import ContactOptions, StiffnessMode
 from knotsim.contact.swept import pass_through, swept_box_pairs
 from knotsim.errors import ConfigError
 from knotsim.geometry import exclusion
@@ -79,7 +79,7 @@ CROSSING_TOL = 0.01
 #: fraction of ``margin`` at a Jacobian evaluation (:meth:`Contact.block_dofs`).
 BLOCK_BAND_FRACTION = 0.5
 
-__all__ = ["Contact", "ContactInteraction", "ContactOptions", "ContactSettings", "StiffnessMode", "contact_from_config"]
+__all__ = ["Contact", "ContactOptions", "StiffnessMode", "contact_from_config"]
 
 
 
@@ -114,11 +114,11 @@ class Contact:
 
     name = "contact"
 
-    def __init__(self, model, settings: ContactSettings | None = None):
+    def __init__(self, model, options: ContactOptions | None = None):
         self.model = model
-        self.settings = settings or ContactSettings()
-        self.settings.validate()
-        s = self.settings
+        self.options = options or ContactOptions()
+        self.options.validate()
+        s = self.options
         m = model
         self._mu_table = self._mu_matrix(s.mu)
         #: friction at the rods' surfaces: pair blocks carry the two edge angles (14 unknowns); a
@@ -215,7 +215,7 @@ class Contact:
         m = self.model
         pairs = find_candidate_pairs(q, m.edge_dofs, m.edge_rod, m.edge_local, m.rod_n_edges, m.rod_closed,
                                      m.edge_radius, extra)
-        if not self.settings.self_contact and pairs.shape[0]:
+        if not self.options.self_contact and pairs.shape[0]:
             pairs = pairs[m.edge_rod[pairs[:, 0]] != m.edge_rod[pairs[:, 1]]]
         elif pairs.shape[0] and np.any(self._rod_min_gap > exclusion.MIN_INDEX_GAP):
             pairs = pairs[self._self_pair_allowed(pairs)]
@@ -237,7 +237,7 @@ class Contact:
         ``d + delta``.
         """
         m = self.model
-        s = self.settings
+        s = self.options
         t0 = time.perf_counter()
         q = state_in.q
         if self._max_displacement(q) > REBUILD_FRACTION * s.margin:
@@ -279,7 +279,7 @@ class Contact:
         self.pair_h = np.ascontiguousarray(np.stack([ra, rb], axis=1).reshape(-1, 2))
         la = m.rest_length[pairs[:, 0]]
         lb = m.rest_length[pairs[:, 1]]
-        self.pair_eta = 8.0 * self.pair_d * self.settings.parallel_smoothing / (la * la + lb * lb)
+        self.pair_eta = 8.0 * self.pair_d * self.options.parallel_smoothing / (la * la + lb * lb)
         self.pair_mu = np.ascontiguousarray(self._mu_table[m.edge_rod[pairs[:, 0]], m.edge_rod[pairs[:, 1]]])
         self._pair_keys = pairs[:, 0] * m.n_edges + pairs[:, 1]
         self._set_blocks(np.zeros(pairs.shape[0], bool))
@@ -322,11 +322,11 @@ class Contact:
         ev = _Eval(q.copy(), np.empty(k), np.empty((k, 12)), np.empty((k, 12)), np.zeros((k, 4)))
         # one kernel per distance and friction law: a run compiles only the one it uses (pair_eta > 0
         # iff smoothing > 0)
-        if self.settings.parallel_smoothing > 0.0:
+        if self.options.parallel_smoothing > 0.0:
             kernel = contact_evaluate_regularized_surface if self.surface_friction else contact_evaluate_regularized
         else:
             kernel = contact_evaluate_exact_surface if self.surface_friction else contact_evaluate_exact
-        args = (self.pair_dofs, self.pair_d, self.pair_mu, self.settings.delta, self.settings.nu, self.k_c)
+        args = (self.pair_dofs, self.pair_d, self.pair_mu, self.options.delta, self.options.nu, self.k_c)
         tail = (self.pair_eta, self.pair_theta, self.pair_h, ev.surface)
         e, missing = kernel(q, q_prev, dt, *args, residual, bool(want_jacobian), self._blocks, self._block_slot,
                             ev.delta, ev.fc, ev.ff, *tail)
@@ -336,8 +336,8 @@ class Contact:
         blocks = None
         if want_jacobian:
             if missing:  # pairs in range without a block: new blocks (a new pattern), evaluated again
-                live = ev.delta < self.pair_d + self.settings.delta
-                band = self.settings.delta + BLOCK_BAND_FRACTION * self.settings.margin
+                live = ev.delta < self.pair_d + self.options.delta
+                band = self.options.delta + BLOCK_BAND_FRACTION * self.options.margin
                 self._set_blocks(self._block_mask | live | (ev.delta < self.pair_d + band))
                 kernel(q, q_prev, dt, *args, np.zeros_like(residual), True, self._blocks, self._block_slot,
                        ev.delta, ev.fc, ev.ff, *tail)
@@ -364,7 +364,7 @@ class Contact:
         pairs only when the drift exceeds ``margin / 2`` (below it no pair outside the list comes
         within ``d + delta`` anywhere along the motion): then a broad phase over the swept boxes of
         all edges finds the pairs to test, however far they moved."""
-        s = self.settings
+        s = self.options
         m = self.model
         k = self.pair_dofs.shape[0]
         dmax = self._max_displacement(q)
@@ -421,7 +421,7 @@ class Contact:
         """``(tol, reach)`` (k,) m of the swept test of the listed pairs: ``CROSSING_TOL`` times the
         smaller radius and the list's cut-off ``d + delta + margin`` (kept while the list and the
         settings stay)."""
-        s = self.settings
+        s = self.options
         key = (self.pair_d, s.delta, s.margin)
         c = self._swept_limits
         if c is None or c[0][0] is not self.pair_d or c[0][1:] != key[1:]:
@@ -436,7 +436,7 @@ class Contact:
                                 m.edge_radius)
         if not pairs.shape[0]:
             return None
-        if not self.settings.self_contact:
+        if not self.options.self_contact:
             pairs = pairs[m.edge_rod[pairs[:, 0]] != m.edge_rod[pairs[:, 1]]]
         elif np.any(self._rod_min_gap > exclusion.MIN_INDEX_GAP):
             pairs = pairs[self._self_pair_allowed(pairs)]
@@ -491,7 +491,7 @@ class Contact:
         fmax = 0.0
         worst, ratio = 0, -math.inf
         if k:
-            n_contacts, min_gap, worst, ratio = gap_summary(ev.delta, self.pair_d, self.pair_hmin, self.settings.delta)
+            n_contacts, min_gap, worst, ratio = gap_summary(ev.delta, self.pair_d, self.pair_hmin, self.options.delta)
             pen = float(max(0.0, ratio))
             fmax, fc_tot, ff_tot = nodal_force_summary(self.pair_dofs, ev.fc, ev.ff, m.node_dof, m.n_dofs)
         else:
@@ -549,9 +549,6 @@ class Contact:
             rolling[nodes[:, c]] = surface[live, 1]
         return slip, rolling
 
-
-#: Former name of :class:`Contact`.
-ContactInteraction = Contact
 
 
 def contact_from_config(model, table: dict) -> list:

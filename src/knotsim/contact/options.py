@@ -10,7 +10,7 @@ import numpy as np
 
 from knotsim.errors import ConfigError
 
-__all__ = ["ContactOptions", "ContactSettings", "FrictionModel", "StiffnessMode"]
+__all__ = ["ContactOptions", "FrictionModel", "StiffnessMode"]
 
 
 def _positive(name: str, value, allow_zero: bool = False) -> float:
@@ -38,7 +38,7 @@ class FrictionModel(StrEnum):
 
 @dataclass
 class ContactOptions:
-    """Settings of :class:`ContactInteraction` (SI units).
+    """Settings of :class:`Contact` (SI units).
 
     - ``delta``: IMC distance tolerance δ (m), default 5e-4;
     - ``nu``: slip tolerance ν (m/s) of the smooth Coulomb law, default 1e-4;
@@ -160,6 +160,3 @@ class ContactOptions:
         if not isinstance(self.self_contact, bool | np.bool_):
             raise ConfigError("contact.self_contact", f"must be true or false, got {self.self_contact!r}")
 
-
-#: Former name of :class:`ContactOptions`.
-ContactSettings = ContactOptions

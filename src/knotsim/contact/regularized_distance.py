@@ -38,7 +38,7 @@ Degenerate input: an edge with squared length at most
 :data:`~knotsim.contact.distance.TINY_DISTANCE` the derivatives are set to zero.
 
 Every kernel takes the 12 coordinates ``p = (x0, x1, x2, x3)`` (m) as one flat float64 array, like
-:mod:`knotsim.contact.distance`, and ``eta > 0``. :class:`~knotsim.contact.model.ContactSettings`
+:mod:`knotsim.contact.distance`, and ``eta > 0``. :class:`~knotsim.contact.model.ContactOptions`
 sets ``η`` per pair from a length (``parallel_smoothing`` ℓ, default 2 µm):
 ``η = 8 d ℓ / (l̄_a² + l̄_b²)``, so the bias is at most about ℓ on any mesh.
 """

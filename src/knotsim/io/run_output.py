@@ -101,9 +101,9 @@ class RunOutput:
         #: the friction law of every contact interaction by name (``"surface"`` or ``"centreline"``),
         #: whether or not the run came from a configuration file
         self._friction_models = {
-            getattr(inter, "name", type(inter).__name__): str(getattr(inter, "settings", inter).friction_model)
+            getattr(inter, "name", type(inter).__name__): str(getattr(inter, "options", inter).friction_model)
             for inter in sim.stepper.interactions
-            if hasattr(getattr(inter, "settings", inter), "friction_model")}
+            if hasattr(getattr(inter, "options", inter), "friction_model")}
         self._t_start = float(sim.state.time)
         self._wall0 = _time.perf_counter()
         self._flushed = len(sim.rows)

@@ -141,18 +141,18 @@ _SOLVER_KEYS = None
 def _contact_keys() -> set[str]:
     global _CONTACT_KEYS
     if _CONTACT_KEYS is None:
-        from knotsim.contact.model import ContactSettings
+        from knotsim.contact.options import ContactOptions
 
-        _CONTACT_KEYS = {f.name for f in fields(ContactSettings)} - {"mu"}
+        _CONTACT_KEYS = {f.name for f in fields(ContactOptions)} - {"mu"}
     return _CONTACT_KEYS
 
 
 def _solver_keys() -> set[str]:
     global _SOLVER_KEYS
     if _SOLVER_KEYS is None:
-        from knotsim.solver.stepper import SolverSettings
+        from knotsim.solver.options import SolverOptions
 
-        _SOLVER_KEYS = {f.name for f in fields(SolverSettings)} - {"dt"}
+        _SOLVER_KEYS = {f.name for f in fields(SolverOptions)} - {"dt"}
     return _SOLVER_KEYS
 
 
@@ -301,11 +301,11 @@ def settings_defaults() -> dict[str, Any]:
     parameters)."""
     from dataclasses import MISSING
 
-    from knotsim.contact.model import ContactSettings
-    from knotsim.solver.stepper import SolverSettings
+    from knotsim.contact.options import ContactOptions
+    from knotsim.solver.options import SolverOptions
 
     out: dict[str, Any] = {}
-    for prefix, cls, skip in (("contact.", ContactSettings, "mu"), ("solver.", SolverSettings, "dt")):
+    for prefix, cls, skip in (("contact.", ContactOptions, "mu"), ("solver.", SolverOptions, "dt")):
         for f in fields(cls):
             if f.name != skip and f.default is not MISSING:
                 out[prefix + f.name] = f.default

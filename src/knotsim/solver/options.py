@@ -9,7 +9,7 @@ from enum import StrEnum
 
 from knotsim.errors import ConfigError
 
-__all__ = ["LinearSolver", "Predictor", "SolverOptions", "SolverSettings"]
+__all__ = ["LinearSolver", "Predictor", "SolverOptions"]
 
 
 class LinearSolver(StrEnum):
@@ -108,6 +108,3 @@ def _member(enum, value, field: str):
         allowed = ", ".join(repr(m.value) for m in enum)
         raise ConfigError(field, f"must be one of {allowed}, got {value!r}") from None
 
-
-#: Former name of :class:`SolverOptions`.
-SolverSettings = SolverOptions

@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from knotsim.errors import ConfigError, SimulationError
 from knotsim.solver.linear import LinearSolveError
 from knotsim.solver.newton import newton_solve
-from knotsim.solver.options import SolverSettings
+from knotsim.solver.options import SolverOptions
 from knotsim.solver.state import State, initial_state
 from knotsim.solver.stepper import Stepper, _StepSystem
 
@@ -63,7 +63,7 @@ STABILITY_TOL = 1e-9
 DENSE_LIMIT = 600
 
 
-def solve_static(model, control=None, state: State | None = None, settings: SolverSettings | None = None,
+def solve_static(model, control=None, state: State | None = None, options: SolverOptions | None = None,
                  interactions=(), load_steps: int = 10, min_increment: float = 1e-4,
                  time: float | None = None, relaxation: bool = True, check_stability: bool = True,
                  on_unstable: str = "warn", max_perturbations: int = 3) -> StaticResult:
@@ -82,7 +82,7 @@ def solve_static(model, control=None, state: State | None = None, settings: Solv
     """
     if on_unstable not in ("warn", "raise", "perturb"):
         raise ConfigError("on_unstable", f"must be 'warn', 'raise' or 'perturb', got {on_unstable!r}")
-    stepper = Stepper(model, interactions, settings or SolverSettings())
+    stepper = Stepper(model, interactions, options or SolverOptions())
     state = (state or initial_state(model)).copy()
     t = state.time if time is None else float(time)
     n = model.n_dofs
@@ -107,7 +107,7 @@ def solve_static(model, control=None, state: State | None = None, settings: Solv
             inter.begin_step(state, 1.0)
         system = _StepSystem(stepper, state, 1.0, fixed, target * load_total, static=True)
         try:
-            res = newton_solve(system, q0, stepper.settings.max_iterations, stepper.settings.line_search)
+            res = newton_solve(system, q0, stepper.options.max_iterations, stepper.options.line_search)
             ok = res.converged
         except LinearSolveError:
             ok = False
@@ -238,7 +238,7 @@ def _pseudo_transient(stepper, state: State, fixed, load, q0, tau0: float = 1e-3
         system = _StepSystem(stepper, s, tau, fixed, load, static=False)
         system.v_n = np.zeros_like(s.v)
         try:
-            res = newton_solve(system, s.q.copy(), stepper.settings.max_iterations, True)
+            res = newton_solve(system, s.q.copy(), stepper.options.max_iterations, True)
         except LinearSolveError:
             res = None
         if res is None or not res.converged:
@@ -253,7 +253,7 @@ def _pseudo_transient(stepper, state: State, fixed, load, q0, tau0: float = 1e-3
         if tau > 1e3 * tau0 or res.iterations <= 2:
             static_sys = _StepSystem(stepper, s, 1.0, fixed, load, static=True)
             try:
-                fin = newton_solve(static_sys, s.q.copy(), stepper.settings.max_iterations, True)
+                fin = newton_solve(static_sys, s.q.copy(), stepper.options.max_iterations, True)
             except LinearSolveError:
                 continue
             if fin.converged:

@@ -30,7 +30,7 @@ from knotsim.solver._validity_kernels import constrained_work
 from knotsim.solver.diagnosis import largest_residual_at
 from knotsim.solver.linear import BandedSolver, LinearSolveError, SparseSolver
 from knotsim.solver.newton import newton_solve
-from knotsim.solver.options import LinearSolver, Predictor, SolverOptions, SolverSettings  # noqa: F401 (re-exported)
+from knotsim.solver.options import LinearSolver, Predictor, SolverOptions  # noqa: F401 (re-exported)
 from knotsim.solver.state import State
 
 _EPS = float(np.finfo(float).eps)
@@ -162,17 +162,17 @@ class _StepSystem:
 
     def step_norm(self, dq: np.ndarray) -> float:
         sp_, st = split_max_abs(dq, self.s.model.theta_mask)
-        return max(sp_ / self.s.step_tol, st / self.s.settings.angle_tol)
+        return max(sp_ / self.s.step_tol, st / self.s.options.angle_tol)
 
 
 class Stepper:
     """Backward-Euler stepper for a :class:`~knotsim.rods.Model` with optional interactions."""
 
-    def __init__(self, model, interactions=(), settings: SolverSettings | None = None):
+    def __init__(self, model, interactions=(), options: SolverOptions | None = None):
         self.model = model
         self.interactions = list(interactions)
-        self.settings = settings or SolverSettings()
-        self.settings.validate()
+        self.options = options or SolverOptions()
+        self.options.validate()
         self.elastic = ElasticEnergy(model)
         m = model
         self.damping_coef = np.zeros(m.n_dofs)
@@ -189,7 +189,7 @@ class Stepper:
             lmean = float(np.mean(m.rest_length[e0:e1]))
             scales.append(rod.EI / lmean**2)
             lens.append(lmean)
-        st = self.settings
+        st = self.options
         self.force_tol = st.force_tol if st.force_tol is not None else 1e-9 * min(scales)
         lmin = min(lens)
         self.moment_tol = st.moment_tol if st.moment_tol is not None else self.force_tol * lmin
@@ -221,7 +221,7 @@ class Stepper:
         #: ``(q, frame source)`` of the last elastic evaluation (the frames the elastic object holds)
         self._frames_at = None
         #: Set by the driver for retries of a failed step: use full Newton (fresh Jacobian every
-        #: iteration), the most robust choice, whatever ``settings.jacobian_reuse`` says.
+        #: iteration), the most robust choice, whatever ``options.jacobian_reuse`` says.
         self.full_newton = False
         #: Number of matrix factorisations so far.
         self.factorizations = 0
@@ -264,7 +264,7 @@ class Stepper:
         self._assembled_for = (key, dt, fixed)
         self._restored_blocks = None
         n = m.n_dofs
-        mode = self.settings.linear_solver
+        mode = self.options.linear_solver
         if mode == "banded" or (mode == "auto" and bw <= 24):
             kl = ku = max(bw, 1)
             ab = np.zeros((n, 2 * kl + ku + 1)).T  # Fortran order: columns contiguous
@@ -394,7 +394,7 @@ class Stepper:
             arrays["ordering_perm"] = order[0]
         a = self._assembled_for
         if (self._last_iterations == 1 and a is not None and a[1] is not None
-                and self.settings.jacobian_across_steps and (not self._needs_factor or a[0] is None)):
+                and self.options.jacobian_across_steps and (not self._needs_factor or a[0] is None)):
             if a[0] is None:  # restored and not used yet: its blocks are those it was restored with
                 blocks = self._restored_blocks
             else:
@@ -450,7 +450,7 @@ class Stepper:
     # -- stepping -------------------------------------------------------------------------
     def _predict(self, state_in: State, dt: float) -> np.ndarray:
         """Initial Newton guess for the step from ``state_in`` over ``dt`` (see ``predictor``)."""
-        mode = self.settings.predictor
+        mode = self.options.predictor
         if mode == "previous":
             return state_in.q.copy()
         v = state_in.v
@@ -476,11 +476,11 @@ class Stepper:
         q0 = self._predict(state_in, dt)
         q0[fixed_dofs] = fixed_vals
         system = _StepSystem(self, state_in, dt, fixed, self.gravity_force + f_bc, static=False)
-        reuse = self.settings.jacobian_reuse and not self.full_newton
-        carry = reuse and self.settings.jacobian_across_steps and self._jacobian_carries_over(dt, fixed)
+        reuse = self.options.jacobian_reuse and not self.full_newton
+        carry = reuse and self.options.jacobian_across_steps and self._jacobian_carries_over(dt, fixed)
         self._last_iterations = None  # until this step is accepted
         try:
-            res = newton_solve(system, q0, self.settings.max_iterations, self.settings.line_search,
+            res = newton_solve(system, q0, self.options.max_iterations, self.options.line_search,
                                reuse_jacobian=reuse, jacobian_at_start=not carry)
         except (LinearSolveError, ArithmeticError) as exc:  # ArithmeticError: ZeroDivision, overflow, FPE
             raise StepFailure(f"{type(exc).__name__}: {exc}" if isinstance(exc, ArithmeticError) else str(exc)) from exc

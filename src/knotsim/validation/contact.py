@@ -15,10 +15,10 @@ import time
 import numpy as np
 
 from knotsim.bc import BoundaryConditions
-from knotsim.contact.model import ContactInteraction, ContactSettings
+from knotsim.contact.model import Contact, ContactOptions
 from knotsim.rods import Model, RodSpec
 from knotsim.simulation import Simulation
-from knotsim.solver.options import SolverSettings
+from knotsim.solver.options import SolverOptions
 
 H = 1e-3  # rod radius, m
 DELTA = 5e-4  # IMC distance tolerance, m
@@ -61,8 +61,8 @@ def pressed_crossing_rods(duration: float = 0.6):
 
     bcs.move("B0", rod="B", nodes=[0, 1], path=press)
     bcs.move("B1", rod="B", nodes=[-2, -1], path=press)
-    ci = ContactInteraction(m, ContactSettings())
-    sim = Simulation(m, bcs, SolverSettings(dt=2e-3), interactions=[ci])
+    ci = Contact(m, ContactOptions())
+    sim = Simulation(m, bcs, SolverOptions(dt=2e-3), interactions=[ci])
     log = sim.run(duration, progress=False)  # pressing ends at 0.15 s; damped creep to rest after
     last = log.iloc[-1]
     fa = np.array([last[f"A0_f{c}"] + last[f"A1_f{c}"] for c in "xyz"])
@@ -89,8 +89,8 @@ def friction_run(ratio, dt, mu=0.3, N=1e-3, T=0.08, t_pull=0.02, friction_model=
     bcs.force("load", rod="B", nodes=list(range(10)), force=[0.0, 0.0, -N])
     F = ratio * mu * N
     bcs.force("pull", rod="B", nodes=list(range(10)), force=[F, 0.0, 0.0], start=t_pull)
-    ci = ContactInteraction(m, ContactSettings(mu=mu, friction_model=friction_model))
-    sim = Simulation(m, bcs, SolverSettings(dt=dt), interactions=[ci])
+    ci = Contact(m, ContactOptions(mu=mu, friction_model=friction_model))
+    sim = Simulation(m, bcs, SolverOptions(dt=dt), interactions=[ci])
     nb = m.node_dof[m.rod_node_start[1]:]
     ts, vx = [], []
 

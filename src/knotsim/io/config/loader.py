@@ -42,7 +42,7 @@ from knotsim.errors import ConfigError
 from knotsim.io.config.bc import BCSpec, bcs_builder, parse_bc, resolve_releases
 from knotsim.io.config.rods import parse_rod
 from knotsim.rods import Model
-from knotsim.solver.options import SolverSettings
+from knotsim.solver.options import SolverOptions
 
 __all__ = ["RunConfig", "contact_interactions", "load_config"]
 
@@ -60,7 +60,7 @@ class RunConfig:
     - ``bcs_builder``: ``bcs_builder(model) -> BoundaryConditions``, a fresh set each call
       (groups capture anchors while running, so each simulation needs its own; see
       :meth:`build_bcs`);
-    - ``solver``: :class:`~knotsim.solver.stepper.SolverSettings`;
+    - ``solver``: :class:`~knotsim.solver.stepper.SolverOptions`;
     - ``duration`` (s) and ``output_interval`` (s between trajectory frames, ``None``: every step);
     - ``raw``: the configuration as a plain dict (written to ``run.toml`` and ``run.json``);
     - ``contact``: the ``[contact]`` table or ``None``;
@@ -70,7 +70,7 @@ class RunConfig:
 
     model: Model
     bcs_builder: Callable[[Model], BoundaryConditions]
-    solver: SolverSettings
+    solver: SolverOptions
     duration: float
     output_interval: float | None
     raw: dict
@@ -89,11 +89,11 @@ class RunConfig:
         return self.bcs_builder(self.model)
 
 
-def parse_solver(t) -> SolverSettings:
+def parse_solver(t) -> SolverOptions:
     t = as_table(t, "solver")
-    fields = {f.name: f for f in dataclasses.fields(SolverSettings)}
+    fields = {f.name: f for f in dataclasses.fields(SolverOptions)}
     check_keys(t, "solver", list(fields))
-    hints = typing.get_type_hints(SolverSettings)
+    hints = typing.get_type_hints(SolverOptions)
     kw = {}
     for key, value in t.items():
         hint = hints[key]
@@ -111,16 +111,16 @@ def parse_solver(t) -> SolverSettings:
             kw[key] = as_string(value, path)
         else:  # pragma: no cover - a new field of an unexpected type
             kw[key] = value
-    settings = SolverSettings(**kw)
-    settings.validate()
-    return settings
+    options = SolverOptions(**kw)
+    options.validate()
+    return options
 
 
 def contact_interactions(model: Model, table: dict | None) -> list:
     """Interactions (contact, friction) described by a ``[contact]`` table; ``[]`` without one.
 
     The table is checked by :func:`knotsim.contact.model.contact_from_config` (its keys are the
-    fields of :class:`~knotsim.contact.model.ContactSettings`).
+    fields of :class:`~knotsim.contact.model.ContactOptions`).
     """
     if table is None:
         return []
