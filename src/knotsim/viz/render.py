@@ -31,12 +31,14 @@ from knotsim.errors import ConfigError
 from knotsim.viz._backend_mpl import render_matplotlib
 from knotsim.viz._backend_pyvista import import_pyvista, render_pyvista
 from knotsim.viz.camera import VIEWS, scene_bounds, view_angles
-from knotsim.viz.scene import DEFAULT_COLORS, color_range, prepare_scene
+from knotsim.viz.scene import DEFAULT_COLORS, ColorBy, RenderBackend, as_backend, color_range, prepare_scene
 from knotsim.viz.tube import TubeMesh, tube_mesh
 
 __all__ = [
     "DEFAULT_COLORS",
     "VIEWS",
+    "ColorBy",
+    "RenderBackend",
     "TubeMesh",
     "render_frame",
     "render_run",
@@ -65,8 +67,7 @@ def _render_array(
     dpi: int = 100,
 ) -> np.ndarray:
     """Render to an ``(h, w, 3)`` uint8 RGB array; arguments as :func:`render_frame`."""
-    if backend not in ("auto", "pyvista", "matplotlib"):
-        raise ConfigError("backend", f"must be 'auto', 'pyvista' or 'matplotlib', got {backend!r}")
+    backend = as_backend(backend)
     try:
         w, h = (int(s) for s in size)
     except (TypeError, ValueError):
@@ -82,13 +83,13 @@ def _render_array(
     fit = mesh.vertices if bounds is None else np.array(np.meshgrid(*box, indexing="ij")).reshape(3, -1).T
 
     use = backend
-    if backend == "auto":
+    if backend is RenderBackend.AUTO:
         try:
             import_pyvista()
-            use = "pyvista"
+            use = RenderBackend.PYVISTA
         except ImportError:
-            use = "matplotlib"
-    if use == "pyvista":
+            use = RenderBackend.MATPLOTLIB
+    if use is RenderBackend.PYVISTA:
         try:
             img = render_pyvista(mesh, rgb, fit, ang, (w, h), title, cmap, lim, label)
         except ImportError as exc:
@@ -96,11 +97,11 @@ def _render_array(
                 "the pyvista backend needs pyvista: pip install knotsim[render] (or use backend='matplotlib')"
             ) from exc
         except Exception as exc:  # any OpenGL / VTK failure
-            if backend != "auto":
+            if backend is not RenderBackend.AUTO:
                 raise
             warnings.warn(f"pyvista rendering failed ({exc}); falling back to matplotlib", stacklevel=3)
-            use = "matplotlib"
-    if use == "matplotlib":
+            use = RenderBackend.MATPLOTLIB
+    if use is RenderBackend.MATPLOTLIB:
         img = render_matplotlib(mesh, rgb, box, fit, ang, (w, h), title, cmap, lim, label, int(dpi))
     img = np.ascontiguousarray(img, dtype=np.uint8)
     if img.shape[:2] != (h, w):  # guard against rounding in backends: pad / crop to the exact size

@@ -8,6 +8,7 @@ range of the scalars.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -28,6 +29,29 @@ DEFAULT_COLORS: tuple[str, ...] = (
 )
 
 BACKGROUND = (1.0, 1.0, 1.0)  # RGB in [0, 1]
+
+
+class RenderBackend(StrEnum):
+    """What draws the tubes (:func:`knotsim.viz.render.render_frame` ``backend=``)."""
+
+    AUTO = "auto"              #: pyvista when it can be imported, else matplotlib
+    PYVISTA = "pyvista"        #: pyvista / VTK (the render extra)
+    MATPLOTLIB = "matplotlib"  #: matplotlib's 3D axes (always available)
+
+
+class ColorBy(StrEnum):
+    """A quantity the rods can be coloured by (:func:`knotsim.viz.render.render_frame` ``color_by=``)."""
+
+    BENDING_STRAIN = "bending_strain"  #: curvature times radius at every node
+
+
+def as_backend(value) -> RenderBackend:
+    """``value`` (a :class:`RenderBackend` or its string) as a :class:`RenderBackend`;
+    :class:`ConfigError` (field ``backend``) otherwise."""
+    try:
+        return RenderBackend(value)
+    except ValueError:
+        raise ConfigError("backend", f"must be 'auto', 'pyvista' or 'matplotlib', got {value!r}") from None
 
 
 def prepare_scene(
@@ -78,8 +102,10 @@ def prepare_scene(
             raise ConfigError("scalars", "need one (N_k,) array per rod, matching the centerlines")
         label = color_by if isinstance(color_by, str) else "value"
     elif color_by is not None:
-        if color_by != "bending_strain":
-            raise ConfigError("color_by", f"must be None or 'bending_strain', got {color_by!r}")
+        try:
+            color_by = ColorBy(color_by)
+        except ValueError:
+            raise ConfigError("color_by", f"must be None or 'bending_strain', got {color_by!r}") from None
         from knotsim.io.vtk import node_bending_strain
 
         vals = [node_bending_strain(c, r, is_c) for c, r, is_c in zip(lines, rad, cl, strict=True)]

@@ -17,13 +17,14 @@ from __future__ import annotations
 
 import os
 import sys
+from enum import StrEnum
 from pathlib import Path
 
 import numpy as np
 
 from knotsim.errors import ConfigError
 
-__all__ = ["COLOR_FIELDS", "force_curves", "has_display", "run_directory", "select_frames", "show_window", "write_html"]
+__all__ = ["COLOR_FIELDS", "NodeField", "force_curves", "has_display", "run_directory", "select_frames", "show_window", "write_html"]
 
 #: Colour of each rod (cycled), as CSS hex strings.
 ROD_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf")
@@ -95,15 +96,26 @@ def _import_plotly():
     return go, make_subplots
 
 
-#: Node fields of ``trajectory.h5`` a page can colour the rods by (``write_html(color_by=...)``).
-COLOR_FIELDS = ("slip_speed", "rolling_speed", "contact_force", "friction_force")
+class NodeField(StrEnum):
+    """A node field of ``trajectory.h5`` a page can colour the rods by (``write_html(color_by=...)``)."""
+
+    SLIP_SPEED = "slip_speed"          #: m/s, surface friction only
+    ROLLING_SPEED = "rolling_speed"    #: m/s, surface friction only
+    CONTACT_FORCE = "contact_force"    #: N
+    FRICTION_FORCE = "friction_force"  #: N
+
+
+#: The :class:`NodeField` members, in order.
+COLOR_FIELDS = tuple(NodeField)
 
 
 def _node_colors(traj, frames: np.ndarray, color_by: str) -> tuple[dict[int, list[np.ndarray]], float, str]:
     """Per-rod node values of ``color_by`` at the selected frames (NaN, no contact, shown as 0), the
     top of the colour scale (the largest value shown) and its unit."""
-    if color_by not in COLOR_FIELDS:
-        raise ConfigError("color_by", f"must be one of {list(COLOR_FIELDS)}, got {color_by!r}")
+    try:
+        color_by = NodeField(color_by).value  # checked; a plain string from here on
+    except ValueError:
+        raise ConfigError("color_by", f"must be one of {[f.value for f in NodeField]}, got {color_by!r}") from None
     if color_by not in traj.fields:
         hint = (" (written by runs with rod-rod contact and contact.friction_model = 'surface')"
                 if color_by in ("slip_speed", "rolling_speed") else " (written by runs with contact)")

@@ -91,7 +91,7 @@ from knotsim.knots.topology.alexander import _minor_poly as _minor_poly
 from knotsim.knots.topology.alexander import _wirtinger as _wirtinger
 from knotsim.knots.topology.alexander import alexander_polynomial, knot_determinant
 from knotsim.knots.topology.analyze import TopologyResult, analyze, analyze_bend
-from knotsim.knots.topology.closure import bend_pairing, close_bend, close_curves
+from knotsim.knots.topology.closure import ClosureMethod, bend_pairing, close_bend, close_curves
 from knotsim.knots.topology.counting import CountingRules, counting_rules, knot_counting_rules
 from knotsim.knots.topology.curves import TopologyError
 from knotsim.knots.topology.diagram import Diagram, project
@@ -110,6 +110,7 @@ from knotsim.knots.topology.table import _torus_2q as _torus_2q
 
 __all__ = [
     "BEND_TABLE",
+    "ClosureMethod",
     "KNOT_TABLE",
     "CountingRules",
     "Diagram",

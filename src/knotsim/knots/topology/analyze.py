@@ -8,7 +8,7 @@ from fractions import Fraction
 import numpy as np
 
 from knotsim.knots.topology.alexander import alexander_polynomial, knot_determinant
-from knotsim.knots.topology.closure import _close, close_bend
+from knotsim.knots.topology.closure import ClosureMethod, _close, close_bend
 from knotsim.knots.topology.curves import TopologyError
 from knotsim.knots.topology.diagram import Diagram, project
 from knotsim.knots.topology.jones import _jones_from_bracket, kauffman_bracket
@@ -120,7 +120,7 @@ def analyze(
     closed=None,
     *,
     pairing=None,
-    closure: str = "radial",
+    closure: ClosureMethod | str = "radial",
     radius_factor: float = 20.0,
     direction=None,
     seed: int = 0,

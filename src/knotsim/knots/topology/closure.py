@@ -11,12 +11,21 @@ A two-rope bend whose standing ends are known is closed into one curve by :func:
 from __future__ import annotations
 
 import math
+from enum import StrEnum
 
 import numpy as np
 
 from knotsim.knots.topology.curves import TopologyError, _as_closed_flags, _as_curve_list, _dedupe
 
 End = tuple[int, int]  # (rope index, 0 = first node | 1 = last node)
+
+
+class ClosureMethod(StrEnum):
+    """How an open rope's end goes out to the far sphere (:func:`close_curves` ``method=``,
+    :func:`~knotsim.knots.topology.analyze` ``closure=``)."""
+
+    RADIAL = "radial"    #: along the ray from the centroid of all nodes through the end
+    TANGENT = "tangent"  #: straight on along the end tangent
 
 
 def bend_pairing(
@@ -112,8 +121,10 @@ def _close(curves, closed, pairing, method: str, radius_factor: float, arc_step_
     """:func:`close_curves` (arguments there), also returning the rope indices of each component."""
     ropes = _as_curve_list(curves)
     flags = _as_closed_flags(closed, len(ropes))
-    if method not in ("radial", "tangent"):
-        raise TopologyError(f"method: must be 'radial' or 'tangent', got {method!r}")
+    try:
+        method = ClosureMethod(method)
+    except ValueError:
+        raise TopologyError(f"method: must be 'radial' or 'tangent', got {method!r}") from None
     if not radius_factor > 2.0:
         raise TopologyError(
             f"radius_factor: must be > 2 (far sphere outside the tangle), got {radius_factor}"
@@ -209,7 +220,7 @@ def close_curves(
     closed=None,
     *,
     pairing=None,
-    method: str = "radial",
+    method: ClosureMethod | str = "radial",
     radius_factor: float = 20.0,
     arc_step_deg: float = 10.0,
 ) -> list[np.ndarray]:
@@ -227,7 +238,7 @@ def close_curves(
         node and 1 for the last; every end of every open rope must appear exactly once.  ``None``
         joins the two ends of each open rope.  See :func:`bend_pairing` for two ropes tied together.
     method:
-        ``"radial"``: each end goes straight out to the far sphere along the ray from the centroid of
+        A :class:`ClosureMethod` or its string. ``"radial"``: each end goes straight out to the far sphere along the ray from the centroid of
         all nodes through the end.  ``"tangent"``: each end goes straight on along its end tangent
         (averaged over the last 3 edges) until the far sphere.
     radius_factor:
