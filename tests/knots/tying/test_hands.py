@@ -56,34 +56,3 @@ def test_to_bc_relative_hand_ignores_where_it_starts():
     bc = th.Hand("regrip", [3], [2.0, 3.0], [[5.0, 5.0, 5.0], [5.0, 5.5, 5.0]], rel=True).to_bc(x0)
     assert "twist" not in bc and "stop" not in bc
     np.testing.assert_allclose(bc["waypoints"]["points"], [[0.0, 0.0, 0.0], [0.0, 0.5, 0.0]])
-
-
-@pytest.mark.parametrize("kind", ["reef", "granny"])
-def test_two_overhands_hands_never_stretch_the_rod(kind):
-    hands, info = th.two_overhands_hands(kind)
-    ratio, _, _ = th.hand_stretch(hands, info["length"] / (info["n_nodes"] - 1))
-    assert 0.5 < ratio < 1.01
-
-
-def test_two_overhands_reef_and_granny_left_knots_are_mirror_images():
-    """Generator-only variant: right halves identical; left halves differ by the sign of z."""
-    reef, _ = th.two_overhands_hands("reef")
-    granny, _ = th.two_overhands_hands("granny")
-    assert len(reef) == len(granny) > 0
-    n_left = 0
-    for hr, hg in zip(reef, granny, strict=True):
-        assert hr.name == hg.name and hr.nodes == hg.nodes
-        pr, pg = np.asarray(hr.points), np.asarray(hg.points)
-        np.testing.assert_allclose(pr[:, :2], pg[:, :2])
-        if hr.name.startswith("L.") or hr.name == "end_a":
-            n_left += 1
-            np.testing.assert_allclose(pr[:, 2], -pg[:, 2])
-            assert np.abs(pr[:, 2]).max() > 0
-        else:
-            np.testing.assert_allclose(pr[:, 2], pg[:, 2])
-    assert n_left == 7
-
-
-def test_double_knot_kind_is_checked():
-    with pytest.raises(ValueError, match="reef"):
-        th.two_overhands_hands("bowline")

@@ -44,10 +44,9 @@ def test_expected_names_are_shipped():
 
 
 #: Names of the former single-module ``knotsim.knots.tying`` that code and docs use.
-_PUBLIC = ["EXPECTED", "Hand", "TyingResult", "double_knot_sequence", "double_sequence", "dumps_toml",
-           "hand_stretch", "list_tying_sequences", "load_tying_config", "overhand_hands", "overhand_sequence",
-           "same_end_header", "same_end_sequence", "second_half_knot_hands", "tie_from_straight",
-           "two_overhands_hands", "tying_sequence_path", "write_sequence"]
+_PUBLIC = ["EXPECTED", "Hand", "TyingResult", "dumps_toml", "hand_stretch", "list_tying_sequences",
+           "load_tying_config", "overhand_hands", "overhand_sequence", "tie_from_straight", "tying_sequence_path",
+           "write_sequence"]
 
 
 def test_package_keeps_the_module_names():

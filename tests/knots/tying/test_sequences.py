@@ -11,14 +11,6 @@ from knotsim.knots import tying
 from knotsim.knots.tying import sequences as ts
 
 
-def _fake_stage1_state(n=209, length=1.3, k0=107, k1=137):
-    """A straight rod with two far-apart nodes touching (a stand-in for the first knot)."""
-    x = np.zeros((n, 3))
-    x[:, 0] = np.linspace(0.0, length, n)
-    x[k1, :] = x[k0] + [0.0, 0.0, 4e-3]
-    return x
-
-
 def _assert_identical(a, b, where="cfg"):
     """Same tree, same types, every float equal to the last bit."""
     assert type(a) is type(b), (where, a, b)
@@ -49,9 +41,7 @@ def test_generator_matches_shipped_overhand():
 @pytest.mark.parametrize("make", [
     ts.overhand_sequence,
     lambda: ts.overhand_sequence(radius=1.0 / 3.0 * 1e-2, youngs=2.0 / 3.0 * 1e6, dt=1e-3 / 7.0),
-    lambda: ts.same_end_sequence("reef", state=_fake_stage1_state())[0],
-    lambda: ts.double_knot_sequence("granny"),
-], ids=["overhand", "overhand_unrounded", "same_end_reef", "double_knot_granny"])
+], ids=["overhand", "overhand_unrounded"])
 def test_dumps_toml_round_trips_every_float_exactly(make):
     cfg = make()
     text = tying.dumps_toml(cfg)
@@ -64,30 +54,3 @@ def test_write_sequence_header_and_exact_values(tmp_path):
     text = path.read_text()
     assert text.startswith("# line one\n#\n# line three\n")
     _assert_identical(cfg, loads_toml(text))
-
-
-def test_same_end_reef_and_granny_second_knots_are_mirror_images():
-    x = _fake_stage1_state()
-    reef, _ = ts.same_end_sequence("reef", state=x)
-    granny, _ = ts.same_end_sequence("granny", state=x)
-    n2 = 0
-    for a, b in zip(reef["bc"], granny["bc"], strict=True):
-        pa, pb = np.asarray(a["waypoints"]["points"]), np.asarray(b["waypoints"]["points"])
-        if a["name"].endswith("2"):  # rope along +x: mirror through its vertical plane = y -> -y
-            n2 += 1
-            np.testing.assert_allclose(pa[:, [0, 2]], pb[:, [0, 2]], atol=1e-9)
-            np.testing.assert_allclose(pa[:, 1], -pb[:, 1], atol=1e-9)
-        else:
-            np.testing.assert_allclose(pa, pb, atol=1e-9)
-    assert n2 == 7
-
-
-def test_same_end_needs_a_first_knot():
-    x = np.zeros((209, 3))
-    x[:, 0] = np.linspace(0.0, 1.3, 209)
-    with pytest.raises(ValueError, match="no first knot"):
-        ts.same_end_sequence("reef", state=x)
-    with pytest.raises(ValueError, match="reef"):
-        ts.same_end_sequence("bowline", state=x)
-    with pytest.raises(ValueError, match="reef"):
-        ts.double_sequence("bowline", state=x)

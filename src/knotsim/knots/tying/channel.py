@@ -28,6 +28,7 @@ import dataclasses
 import numpy as np
 
 from knotsim.knots.tying.hands import _check_kind
+from knotsim.knots.tying.sequences import _config
 
 __all__ = ["DEFAULT_N_NODES", "SECOND_HALF_KNOT_PASSES", "channel_curve", "channel_header", "channel_sequence"]
 
@@ -118,8 +119,6 @@ def channel_sequence(kind: str, *, length=1.3, n_nodes=DEFAULT_N_NODES, radius=2
     released, ``hold_nodes`` (odd) nodes round the hold hint held, the end pairs pulled apart by
     ``pull`` (m) each at ``pull_speed`` (m/s).
     """
-    from knotsim.knots.tying.sequences import _config
-
     _check_kind(kind)
     if not (isinstance(hold_nodes, int) and hold_nodes >= 1 and hold_nodes % 2 == 1):
         raise ValueError(f"hold_nodes must be an odd number >= 1, got {hold_nodes!r}")
