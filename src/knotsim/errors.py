@@ -13,6 +13,10 @@ class KnotsimError(Exception):
     """Base class of every error knotsim raises on purpose."""
 
 
+class KnotsimWarning(UserWarning):
+    """Base class of every warning knotsim issues (the test suite turns them into errors)."""
+
+
 class ConfigError(KnotsimError, ValueError):
     """Bad input: a configuration value, a function argument or a TOML key.
 

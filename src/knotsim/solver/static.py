@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from knotsim.errors import ConfigError, SimulationError
+from knotsim.errors import ConfigError, KnotsimWarning, SimulationError
 from knotsim.solver.linear import LinearSolveError
 from knotsim.solver.newton import newton_solve
 from knotsim.solver.options import SolverOptions
@@ -53,7 +53,7 @@ class StaticResult:
     perturbations: int = 0
 
 
-class UnstableEquilibriumWarning(RuntimeWarning):
+class UnstableEquilibriumWarning(KnotsimWarning, RuntimeWarning):
     """The static solve converged to an unstable equilibrium (a negative Hessian eigenvalue)."""
 
 

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from knotsim.errors import ConfigError
+from knotsim.errors import ConfigError, KnotsimWarning
 from knotsim.viz._backend_mpl import render_matplotlib
 from knotsim.viz._backend_pyvista import import_pyvista, render_pyvista
 from knotsim.viz.camera import VIEWS, scene_bounds, view_angles
@@ -99,7 +99,8 @@ def _render_array(
         except Exception as exc:  # any OpenGL / VTK failure
             if backend is not RenderBackend.AUTO:
                 raise
-            warnings.warn(f"pyvista rendering failed ({exc}); falling back to matplotlib", stacklevel=3)
+            warnings.warn(f"pyvista rendering failed ({exc}); falling back to matplotlib", KnotsimWarning,
+                          stacklevel=3)
             use = RenderBackend.MATPLOTLIB
     if use is RenderBackend.MATPLOTLIB:
         img = render_matplotlib(mesh, rgb, box, fit, ang, (w, h), title, cmap, lim, label, int(dpi))
