@@ -6,9 +6,12 @@ Each repeat runs the README's first command, ``knotsim pull overhand_n1 --quick`
 process with an empty numba cache (``NUMBA_CACHE_DIR`` in a new temporary folder, so nothing
 compiled before is reused) and reports its wall time, the CPU time of it and its children (the
 compiling second process), the time until the compile notice appears on stderr and the wall time
-the notice reports for the compile. ``--split`` then compiles the warm-up parts once more, in this
-process and one after the other, with an empty cache, and lists the CPU seconds of every kernel
-compiled (from numba's compile events; a kernel's time includes the helpers it compiles).
+the notice reports for the compile. The time until the first message is also reported
+separately (``first_message_s``: the ``--quick`` notes and the compile notice come together).
+``--split`` then compiles the kernels of the command's run (``knotsim._warmup``'s manifest, the
+groups of a contact run and its knot-type check) once more, in one process and one after the
+other, with an empty cache, and lists the CPU seconds of every group and of every kernel compiled
+(from numba's compile events; a kernel's time includes the helpers it compiles).
 
 Prints one JSON line ``{"runs": [...], "split": {...}}``. The cold start depends on the machine
 being idle: with less than one spare CPU the command compiles in its own process (the notice says
@@ -40,7 +43,7 @@ def cold_run() -> dict:
         first_message = None
         compiled_in = None
         for line in proc.stderr:
-            if first_message is None and line.startswith("note: compiling"):
+            if first_message is None and line.startswith("note: "):
                 first_message = time.perf_counter() - t0
             if line.startswith("note: kernels compiled in"):
                 compiled_in = float(line.split()[4])
@@ -58,7 +61,7 @@ _SPLIT = r"""
 import json, sys, time
 from numba.core import event
 import knotsim._warmup as w
-stack, totals, parts = [], {}, {}
+stack, totals, groups = [], {}, {}
 class Listener(event.Listener):
     def on_start(self, ev):
         stack.append(time.thread_time())
@@ -69,12 +72,13 @@ class Listener(event.Listener):
             name = d.__module__ + "." + d.__qualname__
             totals[name] = totals.get(name, 0.0) + t
 event.register("numba:compile", Listener())
-for part in ("core", "topology", "contact", "run"):
+for entry in w._manifest(w.run_groups()):
     t = time.thread_time()
-    w._PARTS[part]()
-    parts[part] = round(time.thread_time() - t, 2)
+    w._compile([entry])
+    groups[entry[0]] = groups.get(entry[0], 0.0) + time.thread_time() - t
+parts = {g: round(v, 2) for g, v in groups.items()}
 top = dict(sorted(((k, round(v, 2)) for k, v in totals.items()), key=lambda kv: -kv[1]))
-print(json.dumps({"parts_cpu_s": parts, "total_cpu_s": round(sum(parts.values()), 2), "kernels_cpu_s": top}))
+print(json.dumps({"parts_cpu_s": parts, "total_cpu_s": round(sum(groups.values()), 2), "kernels_cpu_s": top}))
 """
 
 

@@ -321,7 +321,7 @@ def test_compile_notice_before_compiling(monkeypatch, capsys, spare):
     calls = []
     monkeypatch.setattr(W, "kernels_cached", lambda **kw: False)
     monkeypatch.setattr(W, "spare_cores", lambda: spare)
-    monkeypatch.setattr(W, "warm_up", lambda parallel: calls.append(parallel) or {"total": 12.0})
+    monkeypatch.setattr(W, "warm_up", lambda parallel, groups: calls.append(parallel) or {"total": 12.0})
     announce_compile()
     err = capsys.readouterr().err
     assert err.startswith("note: compiling the numerical kernels for the first time")

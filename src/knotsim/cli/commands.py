@@ -58,7 +58,7 @@ def run(config: Path | None, outdir: Path | None, overwrite: bool, from_dir: Pat
     spec = RunSpec.load(config)
     cfg = check_run(spec, duration=duration)  # input errors first, alone: before any note
     outdir = prepare_output(outdir, default, overwrite)
-    announce_compile(contact=bool(spec.data.get("contact")), topology=False)
+    announce_compile(contact=cfg.contact, topology=False, obstacles=cfg.obstacles_builder is not None)
     sim, cfg = build_run(cfg, continue_from=from_dir)
     wall0 = time.perf_counter()
     try:
@@ -206,21 +206,18 @@ def warmup(serial: bool | None):
     """Compile every numerical kernel now (numba, cached for later runs) and report the time.
 
     The first run of a command would otherwise start with this (about 45 s of CPU time)."""
-    from knotsim._warmup import kernels_cached, spare_cores, warm_up
+    from knotsim._warmup import GROUPS, kernels_cached, spare_cores, warm_up
 
     if serial is None:
         serial = spare_cores() < 1.0
     was = kernels_cached()
-    click.echo("compiling the numerical kernels (a small contact run)" + ("" if serial else ", 2 processes")
+    click.echo("compiling the numerical kernels (every contact law, obstacles)" + ("" if serial else ", 2 processes")
                + ("; they are cached already, this checks and loads them" if was else "") + " ...", err=True)
-    times = warm_up(parallel=not serial)
-    second = "" if serial else " in a second process"
-    cpu = {k: times[f"cpu.{k}"] for k in ("core", "contact", "topology", "run")}
-    click.echo(f"kernels ready in {times['total']:.1f} s (elastic energies and solver {times['core']:.1f} s; "
-               f"contact {times['contact']:.1f} s, topology {times['topology']:.1f} s and a few steps "
-               f"{times['run']:.1f} s{second}; CPU time {cpu['core']:.1f} s and "
-               f"{cpu['contact'] + cpu['topology'] + cpu['run']:.1f} s); "
-               f"cached: {'yes' if kernels_cached() else 'NO'}")
+    times = warm_up(parallel=not serial, groups=GROUPS)
+    second = "" if serial else f" and {times['second']:.1f} s in a second process"
+    cpu = times["cpu.first"] + times["cpu.second"]
+    click.echo(f"kernels ready in {times['total']:.1f} s ({times['kernels']} kernels: {times['first']:.1f} s here"
+               f"{second}; CPU time {cpu:.1f} s); cached: {'yes' if kernels_cached() else 'NO'}")
 
 
 # ------------------------------------------------------------------------------------------ post-processing

@@ -88,19 +88,21 @@ def prepare_output(outdir: Path | None, default: Path, overwrite: bool) -> Path:
     return outdir
 
 
-def announce_compile(contact: bool = True, topology: bool = True) -> None:
+def announce_compile(contact=True, topology: bool = True, obstacles: bool = False) -> None:
     """When the kernels a run needs are not in numba's cache yet, say so on stderr before anything
     compiles. With a spare CPU (:func:`knotsim._warmup.spare_cores`) compile them first in two
     processes (:func:`knotsim._warmup.warm_up`) and say how long it took; on a busy machine the run
-    compiles them as it goes (a second process would only add CPU time)."""
-    from knotsim._warmup import kernels_cached, spare_cores, warm_up
+    compiles them as it goes (a second process would only add CPU time). ``contact``: ``False`` or
+    ``None`` (none), ``True`` (the protocols' settings) or the run's ``[contact]`` table
+    (:func:`knotsim._warmup.run_groups`)."""
+    from knotsim._warmup import kernels_cached, run_groups, spare_cores, warm_up
 
-    if kernels_cached(contact=contact, topology=topology):
+    if kernels_cached(contact=contact, topology=topology, obstacles=obstacles):
         return
     parallel = spare_cores() >= 1.0
     click.echo("note: compiling the numerical kernels for the first time: about 45 s of CPU time"
                + (", in 2 processes" if parallel else " (the machine is busy: in this process, as the run goes)")
                + "; cached for later runs; `knotsim warmup` does this ahead ...", err=True)
     if parallel:
-        times = warm_up(parallel=True)
+        times = warm_up(parallel=True, groups=run_groups(contact, topology, obstacles))
         click.echo(f"note: kernels compiled in {times['total']:.0f} s", err=True)

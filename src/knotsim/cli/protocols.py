@@ -181,11 +181,11 @@ def pull(knot: str | None, geometry: Path | None, matrices: str | None, protocol
         progress = sys.stderr.isatty()
     from knotsim.protocols.pipeline import run_protocol
 
-    def start():  # every input checked: the notes, then the run (an input error is printed alone)
+    def start(cfg):  # every input checked: the notes, then the run (an input error is printed alone)
         if quick:
             for note in _quick_notes(protocol, overrides, geometry):
                 click.echo(f"note: {note}", err=True)
-        announce_compile(contact=True)
+        announce_compile(contact=cfg.contact, obstacles=cfg.obstacles_builder is not None)
 
     s = run_protocol(protocol, knot=knot, out_dir=outdir, overrides=overrides, progress=progress, quick=quick,
                      geometry=str(geometry) if geometry is not None else None, save_config=save_config,

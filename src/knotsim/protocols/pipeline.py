@@ -274,8 +274,9 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     save_config:
         Also write the complete run description to this file (``knotsim run FILE`` replays it).
     on_start:
-        Called with no arguments once every input is checked, before the simulation is built (the
-        command line prints its notes there, so that an input error comes alone).
+        Called with the checked run (:class:`~knotsim.io.config.RunConfig`) once every input is
+        checked, before the simulation is built (the command line prints its notes there, so that
+        an input error comes alone, and compiles the kernels of the run's contact settings).
 
     Returns
     -------
@@ -296,7 +297,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
         spec.save(save_config, header=f"knotsim pull: {spec.data['description']}; replay with "
                                       f"knotsim run {Path(save_config).name} -o OUT")
     if on_start is not None:
-        on_start()
+        on_start(cfg)
     sim, cfg = build_run(cfg)
     ctx.model = cfg.model
     proto.prepare(ctx)
