@@ -102,7 +102,7 @@ def evaluate(z, pair, want_jacobian=True):
     J = np.zeros((PAIR_UNKNOWNS, PAIR_UNKNOWNS))
     slip, rolling = surface_friction_pair(
         p, np.array(pair.z_prev[:12]), np.array(z[12:], dtype=float), np.array(pair.z_prev[12:]), pair.dt,
-        pair.mu, pair.nu, pair.ha, pair.hb, fc, dfc, ba, bb, dba, dbb, Q, J, want_jacobian,
+        pair.mu, pair.nu, pair.ha, pair.hb, fc, dfc, ba, bb, dba, dbb, Q, J, np.zeros(10), want_jacobian,
     )
     return Result(Q, J, slip, rolling, fc, ba, bb, case, delta)
 
@@ -267,7 +267,7 @@ def test_zero_contact_force_gives_zero_friction():
     zeros = np.zeros(12)
     out = surface_friction_pair(z[:12].copy(), pair.z_prev[:12].copy(), z[12:].copy(),
                                 pair.z_prev[12:].copy(), DT, 0.3, NU, 0.1, 0.1, zeros, np.zeros((12, 12)),
-                                0.5, 0.5, zeros, zeros, Q, J, True)
+                                0.5, 0.5, zeros, zeros, Q, J, np.full(10, 3.0), True)
     assert out == (0.0, 0.0) and not Q.any() and not J.any()
 
 
@@ -279,7 +279,7 @@ def test_force_only_evaluation_leaves_jacobian_untouched():
     Q = np.zeros(14)
     J = np.full((14, 14), 7.0)
     surface_friction_pair(p, pair.z_prev[:12].copy(), z[12:].copy(), pair.z_prev[12:].copy(), DT, pair.mu, NU,
-                          pair.ha, pair.hb, fc, dfc, ba, bb, dba, dbb, Q, J, False)
+                          pair.ha, pair.hb, fc, dfc, ba, bb, dba, dbb, Q, J, np.zeros(10), False)
     assert np.array_equal(Q, full.Q) and np.all(J == 7.0)
 
 
@@ -576,11 +576,12 @@ def test_jacobian_includes_beta_normal_and_angle_terms():
             pair.ha, pair.hb)
     Q = np.zeros(14)
     J = np.zeros((14, 14))
-    surface_friction_pair(*args, fc, dfc, ba, bb, dba, dbb, Q, J, True)
+    spin = np.zeros(10)
+    surface_friction_pair(*args, fc, dfc, ba, bb, dba, dbb, Q, J, spin, True)
     J_nob = np.zeros((14, 14))
-    surface_friction_pair(*args, fc, dfc, ba, bb, 0 * dba, 0 * dbb, Q, J_nob, True)
+    surface_friction_pair(*args, fc, dfc, ba, bb, 0 * dba, 0 * dbb, Q, J_nob, spin, True)
     J_nofc = np.zeros((14, 14))
-    surface_friction_pair(*args, fc, 0 * dfc, ba, bb, dba, dbb, Q, J_nofc, True)
+    surface_friction_pair(*args, fc, 0 * dfc, ba, bb, dba, dbb, Q, J_nofc, spin, True)
     assert jac_fd_error(z, pair) <= JAC_RTOL
     assert np.abs(J_nob - J).max() > 1e-4 * np.abs(J).max()
     assert np.abs(J_nofc - J).max() > 1e-4 * np.abs(J).max()

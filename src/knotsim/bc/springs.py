@@ -117,6 +117,14 @@ class BCInteraction:
         rest twist)."""
         return [f"ring-twist group {g.name!r}" for g in self.rings]
 
+    #: no friction for the spin relaxation (see :meth:`spin_friction`)
+    has_spin_friction = False
+
+    def spin_friction(self):
+        """``None``: spring grips carry no friction in the edge angles (see
+        :mod:`knotsim.solver.spin_relaxation`)."""
+        return None
+
     def stats(self) -> dict:
         out = {}
         for g in self.springs:

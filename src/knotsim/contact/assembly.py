@@ -122,9 +122,11 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
         forces on the edge angles too); ``False``: centre-line friction (:mod:`knotsim.contact.friction`).
     pair_theta : (k, 2) int64, index in ``q`` of the angles of the pair's edges (used if ``surface``).
     pair_h : (k, 2) float64, radii of the pair's edges (m; used if ``surface``).
-    pair_surface : (k, 4) float64 output (written if ``surface``): slip speed and rolling speed (m/s) of
-        every pair in range with friction (see :func:`~knotsim.contact.surface_friction.surface_friction_pair`)
-        and the friction torques on its two edge angles (N m); zero for the others.
+    pair_surface : (k, 14) float64 output (written if ``surface``): slip speed and rolling speed (m/s) of
+        every pair in range with friction (see :func:`~knotsim.contact.surface_friction.surface_friction_pair`),
+        the friction torques on its two edge angles (N m) and its ``spin_out`` record (columns 4–13: the
+        law in the edge angles alone, for :func:`~knotsim.contact.surface_friction.spin_friction_terms`);
+        zero for the others.
 
     Returns
     -------
@@ -145,6 +147,7 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     jfr = np.empty((12, 12))
     fsu = np.empty(14)
     jsu = np.empty((14, 14))
+    spin = np.empty(10)
     th = np.empty(2)
     thp = np.empty(2)
     nb = blocks.shape[1]
@@ -158,7 +161,7 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
         pair_delta[k] = delta
         slot = block_slot[k]
         if surface:
-            for m in range(4):
+            for m in range(14):
                 pair_surface[k, m] = 0.0
         if E <= 0.0:
             for m in range(12):
@@ -197,11 +200,13 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
                 thp[0] = q_prev[ta]
                 thp[1] = q_prev[tb]
                 slip, rolling = surface_friction_pair(p, pp, th, thp, dt, mu, nu, pair_h[k, 0], pair_h[k, 1], fc,
-                                                      dfc, bi, bj, dbi, dbj, fsu, jsu, want_jacobian)
+                                                      dfc, bi, bj, dbi, dbj, fsu, jsu, spin, want_jacobian)
                 pair_surface[k, 0] = slip
                 pair_surface[k, 1] = rolling
                 pair_surface[k, 2] = fsu[12]
                 pair_surface[k, 3] = fsu[13]
+                for m in range(10):
+                    pair_surface[k, 4 + m] = spin[m]
                 for m in range(12):
                     pair_ff[k, m] = fsu[m]
                     residual[pair_dofs[k, m]] -= fsu[m]

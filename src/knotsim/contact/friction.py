@@ -63,6 +63,24 @@ def slip_functions(s, nu):
 
 
 @njit(cache=True)
+def slip_potential(s, nu):
+    """Dissipation potential of the smooth law per unit normal force and time, ``Γ(s) = ln cosh(k s)/k``
+    (m/s) with ``k = K2/2`` (s/m), for a tangential speed ``s >= 0`` (m/s): ``Γ' = γ = tanh(k s)``, so
+    ``μ F_n dt Γ(|u|)`` (J) is the potential whose gradient in the slip ``u dt`` is the friction
+    force's magnitude ``μ F_n γ`` along ``û`` (a series is used for ``k s < 0.02``, and a form without
+    cancellation up to ``k s = 20``)."""
+    k = 0.5 * FRICTION_SHARPNESS / nu
+    x = k * s
+    if x < _SERIES_X:
+        x2 = x * x
+        return x2 * (0.5 + x2 * (-1.0 / 12.0 + x2 * (1.0 / 45.0))) / k
+    if x < 20.0:  # ln cosh x = ln(1 + (cosh x − 1)), cosh x − 1 = expm1(x)²/(2 eˣ): no cancellation
+        em = math.expm1(x)
+        return math.log1p(em * em / (2.0 * (1.0 + em))) / k
+    return (x - math.log(2.0) + math.log1p(math.exp(-2.0 * x))) / k
+
+
+@njit(cache=True)
 def friction_pair(p, p_prev, dt, mu, nu, fc, dfc, beta_i, beta_j, dbeta_i, dbeta_j, force_out, jac_out,
                   want_jacobian=True):
     """Friction force on the 4 nodes of a contact pair and its exact Jacobian.

@@ -61,6 +61,7 @@ from knotsim.contact.assembly import (
 from knotsim.contact.broadphase import find_candidate_pairs, node_drift
 from knotsim.contact.options import ContactOptions, StiffnessMode
 from knotsim.contact.swept import pass_through, swept_box_pairs
+from knotsim.contact.surface_friction import SpinFriction
 from knotsim.errors import ConfigError
 from knotsim.geometry import exclusion
 from knotsim.solver._kernels import same_values
@@ -91,9 +92,10 @@ class _Eval:
     delta: np.ndarray = field(default_factory=lambda: np.zeros(0))
     fc: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)))
     ff: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)))
-    #: (k, 4) slip and rolling speeds (m/s) and friction torques on the two edge angles (N m) of every
+    #: (k, 14) slip and rolling speeds (m/s), friction torques on the two edge angles (N m) and the
+    #: law in the edge angles alone (``spin_out``, columns 4–13) of every
     #: pair, with surface friction (zeros otherwise)
-    surface: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    surface: np.ndarray = field(default_factory=lambda: np.zeros((0, 14)))
 
 
 #: No evaluation yet this step (shared: an ``_Eval`` is never changed after it is made).
@@ -319,7 +321,7 @@ class Contact:
         (``w`` as in :meth:`block_dofs`)."""
         t0 = time.perf_counter()
         k = self.pair_dofs.shape[0]
-        ev = _Eval(q.copy(), np.empty(k), np.empty((k, 12)), np.empty((k, 12)), np.zeros((k, 4)))
+        ev = _Eval(q.copy(), np.empty(k), np.empty((k, 12)), np.empty((k, 12)), np.zeros((k, 14)))
         # one kernel per distance and friction law: a run compiles only the one it uses (pair_eta > 0
         # iff smoothing > 0)
         if self.options.parallel_smoothing > 0.0:
@@ -344,6 +346,23 @@ class Contact:
             blocks = self._blocks  # the blocks of block_dofs(), in its order (valid until the next call)
         self.timers["narrow_phase"] += time.perf_counter() - t0
         return float(e), blocks
+
+    @property
+    def has_spin_friction(self) -> bool:
+        """Whether :meth:`spin_friction` can return friction (surface friction, some μ > 0)."""
+        return self.surface_friction
+
+    def spin_friction(self) -> SpinFriction | None:
+        """Surface friction of the pairs in range at the last evaluation, as a function of the edge
+        angles alone (positions held): for the stepper's spin relaxation. ``None`` with centre-line
+        friction or when no pair in range carries friction."""
+        ev = self._last
+        if not self.surface_friction or ev.q is None or ev.surface.shape[0] == 0:
+            return None
+        live = ev.surface[:, 13] > 0.0
+        if not live.any():
+            return None
+        return SpinFriction(self.pair_theta[live], np.ascontiguousarray(ev.surface[live, 4:]), self.settings.nu)
 
     def _evaluated_at(self, q) -> _Eval:
         ev = self._last

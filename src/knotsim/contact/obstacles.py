@@ -455,6 +455,14 @@ class Obstacle:
                 f"{n}_n_contacts": int(np.count_nonzero(self._gap < self.delta)),
                 f"{n}_min_gap": float(self._gap.min()) if self.nodes.size else math.nan, f"{n}_k_c": float(self.k_c)}
 
+    #: no friction for the spin relaxation (see :meth:`spin_friction`)
+    has_spin_friction = False
+
+    def spin_friction(self):
+        """``None``: this interaction's friction in the edge angles enters the spin relaxation
+        linearised, through its Jacobian blocks (see :mod:`knotsim.solver.spin_relaxation`)."""
+        return None
+
     def stats(self) -> dict:
         """Reaction force (N) and moment (N m) on the obstacle and contact numbers of the last accepted
         step (see the module doc); a free-spinning obstacle's spin is advanced here, once per accepted

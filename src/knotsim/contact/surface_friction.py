@@ -34,7 +34,7 @@ from __future__ import annotations
 from numba import njit
 
 from knotsim import _vec3 as v3
-from knotsim.contact.friction import TINY_FORCE, slip_functions
+from knotsim.contact.friction import TINY_FORCE, slip_functions, slip_potential
 
 #: Number of unknowns of a surface-friction pair: 4 nodes and 2 edge angles.
 PAIR_UNKNOWNS = 14
@@ -86,7 +86,7 @@ def lever_force_dot(c, cd, t, td, f, fd, n, nd):
 
 @njit(cache=True)
 def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, dfc, beta_a, beta_b,
-                          dbeta_a, dbeta_b, force_out, jac_out, want_jacobian=True):
+                          dbeta_a, dbeta_b, force_out, jac_out, spin_out, want_jacobian=True):
     """Friction at the surfaces of a contact pair: generalised forces on its 14 unknowns and their
     exact Jacobian.
 
@@ -103,6 +103,10 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
     force_out : (14,) float64 output, generalised friction force ``Q`` (N on positions, N m on
         angles).
     jac_out : (14, 14) float64 output, ``∂Q/∂z`` (N/m, N, N/rad, N m/rad by block).
+    spin_out : (10,) float64 output, the pair's law as a function of the edge angles alone (positions
+        held): the slip ``u`` (m/s), ``c_a = −h_a t_a × n`` and ``c_b = −h_b t_b × n`` (m; the slip
+        changes by ``(c_a Δθ_a + c_b Δθ_b)/dt`` when the angles turn by ``Δθ``) and ``μ F_n`` (N); all
+        zero for a pair without friction (see :func:`spin_friction_terms`).
     want_jacobian : when ``False`` only ``force_out`` is computed.
 
     Returns
@@ -114,6 +118,8 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
     S = v3.add(v3.load(fc, 0), v3.load(fc, 3))
     sn = v3.norm(S)
     if not sn > TINY_FORCE:
+        for r in range(10):
+            spin_out[r] = 0.0
         for r in range(14):
             force_out[r] = 0.0
             if want_jacobian:
@@ -166,6 +172,11 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
         force_out[9 + r] = -beta_b * f[r] + gb[r]
     force_out[12] = -ha * v3.dot(tan, f)
     force_out[13] = -hb * v3.dot(tbn, f)
+    for r in range(3):
+        spin_out[r] = u[r]
+        spin_out[3 + r] = -ha * tan[r]
+        spin_out[6 + r] = -hb * tbn[r]
+    spin_out[9] = mu * fnorm
     if not want_jacobian:
         return s, rolling
     isn = 1.0 / sn
@@ -225,3 +236,89 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
         jac_out[12, m] = -ha * (v3.dot(dtan, f) + v3.dot(tan, df))
         jac_out[13, m] = -hb * (v3.dot(dtbn, f) + v3.dot(tbn, df))
     return s, rolling
+
+
+@njit(cache=True)
+def spin_friction_terms(dtheta, loc, record, dt, nu, grad_out, hess_out):
+    """The friction of surface-friction pairs as a function of the edge angles alone, positions held.
+
+    With the nodes fixed at the iterate, a pair's slip is affine in its two edge angles,
+    ``u(Δθ) = u + (c_a Δθ_a + c_b Δθ_b)/dt``, and its friction is the gradient of the convex potential
+    ``D = μ F_n dt Γ(|u|)`` (:func:`~knotsim.contact.friction.slip_potential`): the residual of an
+    angle (``−Q_θ``) is ``∂D/∂θ``, its Jacobian ``∂²D/∂θ²`` (docs/physics.md §3.6).
+
+    Parameters
+    ----------
+    dtheta : (m,) float64, turn of the angles from the iterate (rad), in a local numbering.
+    loc : (k, 2) int64, local number of each pair's angles ``θ_a, θ_b`` (−1: held, not turned).
+    record : (k, 10) float64, each pair's ``u`` (m/s), ``c_a``, ``c_b`` (m) and ``μ F_n`` (N) at the
+        iterate (``spin_out`` of :func:`surface_friction_pair`).
+    dt : time step (s); nu : slip tolerance ν (m/s).
+    grad_out : (m,) float64 output, ``Σ ∂D/∂Δθ`` (N m).
+    hess_out : (k, 2, 2) float64 output, each pair's ``∂²D/∂(Δθ_a, Δθ_b)²`` (N m/rad; zero rows and
+        columns for held angles).
+
+    Returns
+    -------
+    ``Σ D`` (J).
+    """
+    for i in range(grad_out.shape[0]):
+        grad_out[i] = 0.0
+    total = 0.0
+    for p in range(record.shape[0]):
+        for i in range(2):
+            for j in range(2):
+                hess_out[p, i, j] = 0.0
+        mufn = record[p, 9]
+        if not mufn > 0.0:
+            continue
+        ia = loc[p, 0]
+        ib = loc[p, 1]
+        da = dtheta[ia] if ia >= 0 else 0.0
+        db = dtheta[ib] if ib >= 0 else 0.0
+        u = (record[p, 0] + (record[p, 3] * da + record[p, 6] * db) / dt,
+             record[p, 1] + (record[p, 4] * da + record[p, 7] * db) / dt,
+             record[p, 2] + (record[p, 5] * da + record[p, 8] * db) / dt)
+        ca = (record[p, 3], record[p, 4], record[p, 5])
+        cb = (record[p, 6], record[p, 7], record[p, 8])
+        s = v3.norm(u)
+        _, phi, psi = slip_functions(s, nu)
+        total += mufn * dt * slip_potential(s, nu)
+        uca = v3.dot(u, ca)
+        ucb = v3.dot(u, cb)
+        c = mufn / dt
+        if ia >= 0:
+            grad_out[ia] += mufn * phi * uca
+            hess_out[p, 0, 0] = c * (phi * v3.dot(ca, ca) + psi * uca * uca)
+        if ib >= 0:
+            grad_out[ib] += mufn * phi * ucb
+            hess_out[p, 1, 1] = c * (phi * v3.dot(cb, cb) + psi * ucb * ucb)
+        if ia >= 0 and ib >= 0:
+            hab = c * (phi * v3.dot(ca, cb) + psi * uca * ucb)
+            hess_out[p, 0, 1] = hab
+            hess_out[p, 1, 0] = hab
+    return total
+
+
+class SpinFriction:
+    """The surface friction of a set of pairs as a function of the edge angles alone (positions held at
+    the iterate where it was taken): a thin object over :func:`spin_friction_terms`, handed by an
+    interaction to the stepper's spin relaxation (:mod:`knotsim.solver.spin_relaxation`).
+
+    Attributes
+    ----------
+    theta_dofs : (k, 2) int64, the unknowns ``θ_a, θ_b`` of each pair.
+    record : (k, 10) float64, each pair's ``spin_out`` record (see :func:`surface_friction_pair`).
+    nu : slip tolerance ν (m/s).
+    """
+
+    def __init__(self, theta_dofs, record, nu: float):
+        self.theta_dofs = theta_dofs
+        self.record = record
+        self.nu = float(nu)
+
+    def terms(self, dtheta, loc, dt: float, grad_out, hess_out) -> float:
+        """``Σ D`` (J) at the turn ``dtheta`` (rad, local numbering ``loc`` (k, 2) of the pairs' angles,
+        −1 for held ones); the gradient (N m) into ``grad_out`` and the per-pair Hessians (N m/rad)
+        into ``hess_out`` (k, 2, 2)."""
+        return spin_friction_terms(dtheta, loc, self.record, dt, self.nu, grad_out, hess_out)

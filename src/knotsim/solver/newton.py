@@ -31,6 +31,13 @@ class NonlinearSystem(Protocol):
         """Optional: Euclidean norm of the residual in tolerance units (used by the safeguarded line
         search; systems without it are measured by ``np.linalg.norm(r)``)."""
 
+    relax_enabled: bool
+    """Optional: whether :meth:`relax` is used."""
+
+    def relax(self, q: np.ndarray, r: np.ndarray, jacobian_current: bool):
+        """Optional nonlinear elimination before a Newton step: ``(q', r')`` with the Jacobian
+        assembled at ``q'``, or ``None`` (e.g. the stepper's spin relaxation)."""
+
 
 def _acceptable(a: float, rn_try: float, rn: float, merit: float, merit0: float, slope: float) -> bool:
     """Line-search test: the residual norm fell, or the potential fell (Armijo with ``slope``)."""
@@ -121,10 +128,24 @@ class _Trial:
 def _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, reuse_ratio, stall_iterations,
             safeguard_cuts, jacobian_at_start=True) -> NewtonResult:
     norm2 = getattr(system, "residual_norm2", None) or (lambda r: float(np.linalg.norm(r)))
+    relax = system.relax if getattr(system, "relax_enabled", False) else None
     trial = _Trial(system)
     q = q0.copy()
-    r = system.residual(q, jacobian_at_start or not reuse_jacobian)
+    fresh = jacobian_at_start or not reuse_jacobian  # the assembled Jacobian is that of q
+    r = system.residual(q, fresh)
     rn = system.residual_norm(r)
+    relaxed_at_q = False
+
+    def relaxed_trial(q_try):
+        """Residual at ``q_try`` (Jacobian assembled), after the system's relaxation from there."""
+        r_t, rn_t = trial(q_try, True)
+        if relax is not None and math.isfinite(rn_t) and rn_t > 1.0:
+            out = relax(q_try, r_t, True)
+            if out is not None:
+                q_try, r_t = out
+                rn_t = system.residual_norm(r_t)
+        return q_try, r_t, rn_t
+
     step = np.inf
     cuts_total = 0
     best = rn
@@ -147,6 +168,16 @@ def _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, r
                 safeguarded = True
                 if reuse_jacobian:
                     r, rn = trial(q, True)  # the Jacobian at the current point
+                    fresh = True
+        if relax is not None and rn > 1.0 and not relaxed_at_q:
+            relaxed = relax(q, r, fresh)
+            if relaxed is not None:
+                q, r = relaxed
+                rn = system.residual_norm(r)
+                fresh = True
+                if not math.isfinite(rn):
+                    return NewtonResult(q, False, it, rn, step, cuts_total, "residual is not finite")
+        relaxed_at_q = False
         dq = system.solve(-r)
         if not all_finite(dq):
             return NewtonResult(q, False, it, rn, step, cuts_total, "linear solve gave a non-finite step")
@@ -160,22 +191,29 @@ def _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, r
         if safeguarded:
             n0 = norm2(r)
             merit_q = system.merit
-            q_try = q + dq
-            r_try, rn_try = trial(q_try, True)
+            # with a relaxation, every trial point is relaxed before it is measured: the line search
+            # is then one of the residual with the relaxed unknowns eliminated (a cycle between a
+            # relaxation and a Newton step that undoes it cannot pass it)
+            q_try, r_try, rn_try = relaxed_trial(q + dq) if relax is not None else (q + dq, *trial(q + dq, True))
             n_try = norm2(r_try) if np.isfinite(rn_try) else np.inf
             cuts = 0
             while n_try > (1.0 - 1e-4 * a) * n0 and cuts < safeguard_cuts:
                 a *= 0.5
                 cuts += 1
-                q_try = q + a * dq
-                r_try, rn_try = trial(q_try, False)
+                if relax is not None:
+                    q_try, r_try, rn_try = relaxed_trial(q + a * dq)
+                else:
+                    q_try = q + a * dq
+                    r_try, rn_try = trial(q_try, False)
                 n_try = norm2(r_try) if np.isfinite(rn_try) else np.inf
             cuts_total += cuts
             if n_try <= (1.0 - 1e-4 * a) * n0:
-                if cuts:
+                if cuts and relax is None:
                     r_try, _ = trial(q_try, True)
-                step = system.step_norm(a * dq)
+                fresh = True
+                step = system.step_norm(a * dq if relax is None else q_try - q)
                 q, r, rn = q_try, r_try, system.residual_norm(r_try)
+                relaxed_at_q = relax is not None
                 continue
             # no descent of the Euclidean norm along dq (the Jacobian is not exact, e.g. DER's
             # skew reference-twist term): this iteration takes the ordinary line search below
@@ -194,8 +232,10 @@ def _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, r
                 q_try = q + a * dq
                 r_try, rn_try = trial(q_try, False)
             cuts_total += cuts
+        fresh = not reuse_jacobian
         if (cuts and not reuse_jacobian) or (reuse_jacobian and (cuts or rn_try > reuse_ratio * rn)):
             r_try, rn_try = trial(q_try, True)  # fresh Jacobian at the accepted point
+            fresh = True
         step = system.step_norm(dq if a == 1.0 else a * dq)
         q, r, rn = q_try, r_try, rn_try
     return NewtonResult(q, False, max_iterations, rn, step, cuts_total,

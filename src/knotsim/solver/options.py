@@ -61,6 +61,9 @@ class SolverOptions:
       source as a fraction of the energy the run handled (default 0.5); a converged step beyond
       either stops the run with a :class:`~knotsim.errors.ValidityError` (``math.inf`` switches a
       guard off).
+    - ``spin_relaxation``: before each Newton step, solve the edge angles with the nodes held when
+      surface-friction pairs are in range (:mod:`knotsim.solver.spin_relaxation`; default on). It
+      changes the Newton path, not the equations; with centre-line friction it does nothing.
     """
 
     dt: float = 1e-3
@@ -79,6 +82,7 @@ class SolverOptions:
     jacobian_across_steps: bool = True
     max_axial_strain: float = 2.0
     max_energy_gain: float = 0.5
+    spin_relaxation: bool = True
 
     def validate(self) -> None:
         if not (isinstance(self.dt, int | float) and self.dt > 0 and math.isfinite(self.dt)):
@@ -91,6 +95,8 @@ class SolverOptions:
             v = getattr(self, name)
             if v is not None and not (v > 0):
                 raise ConfigError(f"solver.{name}", f"must be positive, got {v!r}")
+        if not isinstance(self.spin_relaxation, bool):
+            raise ConfigError("solver.spin_relaxation", f"must be true or false, got {self.spin_relaxation!r}")
         for name in ("max_axial_strain", "max_energy_gain"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float) or not v > 0:

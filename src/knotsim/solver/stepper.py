@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
+import scipy.sparse as sp
 
 from knotsim.energies.elastic import ElasticEnergy, FrameSource
 from knotsim.solver import assembly as asm
@@ -31,6 +32,7 @@ from knotsim.solver.diagnosis import largest_residual_at
 from knotsim.solver.linear import BandedSolver, LinearSolveError, SparseSolver
 from knotsim.solver.newton import newton_solve
 from knotsim.solver.options import LinearSolver, Predictor, SolverOptions  # noqa: F401 (re-exported)
+from knotsim.solver.spin_relaxation import relax_spins
 from knotsim.solver.state import State
 
 _EPS = float(np.finfo(float).eps)
@@ -56,6 +58,14 @@ class Interaction(Protocol):
 
     def stats(self) -> dict:
         """Numbers to log for the last accepted step."""
+
+    #: whether :meth:`spin_friction` can return friction (surface friction with a friction
+    #: coefficient above zero)
+    has_spin_friction: bool
+
+    def spin_friction(self):
+        """Friction in the edge angles alone at the last evaluation (positions held), for the spin
+        relaxation (:class:`~knotsim.solver.spin_relaxation.SpinFrictionTerms`), or ``None``."""
 
 
 class StepFailure(Exception):
@@ -111,6 +121,9 @@ class _StepSystem:
             eps_force = 64.0 * _EPS * (max_abs(state_in.q) + 1e-300) * diag_max
             self.roundoff_factor = max(1.0, eps_force / stepper.force_tol)
         self._mode = None
+        #: the spin relaxation is used (:meth:`relax`)
+        self.relax_enabled = (not static and stepper.settings.spin_relaxation
+                              and any(inter.has_spin_friction for inter in stepper.interactions))
 
     # -- residual / Jacobian --------------------------------------------------------------
     def residual(self, q: np.ndarray, want_jacobian: bool) -> np.ndarray:
@@ -159,6 +172,36 @@ class _StepSystem:
         fp = float(np.dot(r[~theta], r[~theta])) / self.s.force_tol**2
         ft = float(np.dot(r[theta], r[theta])) / self.s.moment_tol**2
         return math.sqrt(fp + ft) / self.roundoff_factor
+
+    def relax(self, q: np.ndarray, r: np.ndarray, jacobian_current: bool):
+        """Spin relaxation (:mod:`knotsim.solver.spin_relaxation`) from the iterate ``q`` with
+        residual ``r`` (the interactions' last evaluation at ``q``; ``jacobian_current``: the
+        assembled Jacobian is that of ``q``): ``(q', r')``, the iterate with its edge angles solved for
+        and its residual (Jacobian assembled at ``q'``), or ``None`` when there is nothing to relax."""
+        s = self.s
+        if not self.relax_enabled:
+            return None
+        spins = [f for f in (inter.spin_friction() for inter in s.interactions) if f is not None]
+        if not spins:
+            return None
+        tol = s.moment_tol * self.roundoff_factor
+        idx = np.unique(np.concatenate([f.theta_dofs.ravel() for f in spins]))
+        idx = idx[self.free[idx]]
+        if not np.max(np.abs(r[idx]), initial=0.0) > tol:
+            return None
+        if not jacobian_current:
+            r = self.residual(q, True)
+            spins = [f for f in (inter.spin_friction() for inter in s.interactions) if f is not None]
+        t0 = time.perf_counter()
+        out = relax_spins(s.jacobian_block(idx), r[idx], idx, s.model.n_dofs, spins, self.dt, 0.5 * tol)
+        s.spin_relaxations += 1
+        s.spin_iterations += out.iterations
+        s.timers["spin_relaxation"] += time.perf_counter() - t0
+        if out.iterations == 0:
+            return None
+        q_new = q.copy()
+        q_new[idx] += out.dtheta
+        return q_new, self.residual(q_new, True)
 
     def step_norm(self, dq: np.ndarray) -> float:
         sp_, st = split_max_abs(dq, self.s.model.theta_mask)
@@ -229,7 +272,11 @@ class Stepper:
         #: Accumulated wall time (s) in force/energy evaluation, Jacobian assembly and linear solves
         #: (``linear_solve``: factorisations, with their symbolic analyses, and solves;
         #: ``factorization``: the factorisations' part of it).
-        self.timers = {"forces": 0.0, "assembly": 0.0, "linear_solve": 0.0, "factorization": 0.0}
+        self.timers = {"forces": 0.0, "assembly": 0.0, "linear_solve": 0.0, "factorization": 0.0,
+                       "spin_relaxation": 0.0}
+        #: spin relaxations (:meth:`_StepSystem.relax`) and their Newton iterations, over the run
+        self.spin_relaxations = 0
+        self.spin_iterations = 0
 
     # -- assembly -------------------------------------------------------------------------
     def _diagonal(self, dt: float) -> tuple[np.ndarray, float]:
@@ -327,6 +374,28 @@ class Stepper:
         self._system = ("sparse", data)
         self._needs_factor = True
         self.last_solver = "sparse"
+
+    def jacobian_block(self, idx: np.ndarray) -> np.ndarray:
+        """The last assembled Jacobian's block of the unknowns ``idx`` (sorted, ``(m,)``) as a dense
+        ``(m, m)`` array (the units of those unknowns' residuals per unit unknown)."""
+        n = self.model.n_dofs
+        if self._system[0] == "sparse":
+            full = sp.csc_matrix((self._system[1], self._indices, self._indptr), shape=(n, n))
+            return full[idx][:, idx].toarray()
+        _, ab, kl, ku, _ = self._system
+        loc = np.full(n, -1, dtype=np.int64)
+        loc[idx] = np.arange(idx.size)
+        rows, cols, vals = [], [], []
+        for d in range(-ku, kl + 1):  # entry (i, j) = (j + d, j) sits at ab[kl + ku + d, j]
+            i = idx + d
+            ok = (i >= 0) & (i < n)
+            ok[ok] = loc[i[ok]] >= 0
+            rows.append(loc[i[ok]])
+            cols.append(loc[idx[ok]])
+            vals.append(ab[kl + ku + d, idx[ok]])
+        out = np.zeros((idx.size, idx.size))
+        np.add.at(out, (np.concatenate(rows), np.concatenate(cols)), np.concatenate(vals))
+        return out
 
     def _jacobian_carries_over(self, dt: float, fixed: np.ndarray) -> bool:
         """Whether a step over ``dt`` (s) with the constrained unknowns ``fixed`` ``(n_dofs,)``
