@@ -1,6 +1,6 @@
 """Smooth Coulomb friction at the rods' surfaces: slip of the surface points, rolling and spin.
 
-The law of docs/physics.md §3.5. A contact pair joins edge a (nodes ``x0, x1``, edge angle
+The law of docs/physics.md §3.3. A contact pair joins edge a (nodes ``x0, x1``, edge angle
 ``θ_a``, radius ``h_a``) and edge b (nodes ``x2, x3``, ``θ_b``, ``h_b``); its 14 unknowns are
 ``z = (x0, x1, x2, x3, θ_a, θ_b)`` (m, m, m, m, rad, rad). At the Newton iterate, with the
 velocities ``ż = (z − z_prev)/dt``:
@@ -245,7 +245,7 @@ def spin_friction_terms(dtheta, loc, record, dt, nu, grad_out, hess_out):
     With the nodes fixed at the iterate, a pair's slip is affine in its two edge angles,
     ``u(Δθ) = u + (c_a Δθ_a + c_b Δθ_b)/dt``, and its friction is the gradient of the convex potential
     ``D = μ F_n dt Γ(|u|)`` (:func:`~knotsim.contact.friction.slip_potential`): the residual of an
-    angle (``−Q_θ``) is ``∂D/∂θ``, its Jacobian ``∂²D/∂θ²`` (docs/physics.md §3.6).
+    angle (``−Q_θ``) is ``∂D/∂θ``, its Jacobian ``∂²D/∂θ²`` (docs/physics.md §3.5).
 
     Parameters
     ----------
