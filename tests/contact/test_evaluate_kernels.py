@@ -67,7 +67,7 @@ def test_kernel_matches_per_pair_reference(regularized):
     blocks = np.full((n_pairs, 12, 12), np.nan)
     e, missing = kernel(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, True, blocks, slot,
                         np.empty(n_pairs), np.empty((n_pairs, 12)), np.empty((n_pairs, 12)), pair_eta,
-                        np.zeros((n_pairs, 2), np.int64), np.zeros((n_pairs, 2)), np.zeros((n_pairs, 4)))
+                        np.zeros((n_pairs, 2), np.int64), np.zeros((n_pairs, 2)), np.zeros((n_pairs, 14)))
     r_ref, b_ref, e_ref = _reference(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, pair_eta)
     assert e_ref > 0.0  # some pairs are in range: the comparison is not vacuous
     assert e == pytest.approx(e_ref, rel=1e-12)

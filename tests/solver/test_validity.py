@@ -167,6 +167,11 @@ class _AntiDamping:
     def stats(self):
         return {}
 
+    has_spin_friction = False
+
+    def spin_friction(self):
+        return None
+
 
 def _swinging_rod(interactions=()):
     model = ks.Model([_straight(0.2, 21, "rod")], gravity=(0.0, 0.0, -9.81))

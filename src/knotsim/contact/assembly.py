@@ -139,6 +139,8 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     pp = np.empty(12)
     grad = np.empty(12)
     hess = np.empty((12, 12))
+    if surface and (pair_surface.shape[0] != npair or pair_surface.shape[1] != 14):
+        raise ValueError("pair_surface must be a (k, 14) array")
     fc = np.empty(12)
     dfc = np.empty((12, 12))
     dbi = np.empty(12)
