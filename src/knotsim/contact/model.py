@@ -362,7 +362,7 @@ class Contact:
         live = ev.surface[:, 13] > 0.0
         if not live.any():
             return None
-        return SpinFriction(self.pair_theta[live], np.ascontiguousarray(ev.surface[live, 4:]), self.settings.nu)
+        return SpinFriction(self.pair_theta[live], np.ascontiguousarray(ev.surface[live, 4:]), self.options.nu)
 
     def _evaluated_at(self, q) -> _Eval:
         ev = self._last

@@ -122,7 +122,7 @@ class _StepSystem:
             self.roundoff_factor = max(1.0, eps_force / stepper.force_tol)
         self._mode = None
         #: the spin relaxation is used (:meth:`relax`)
-        self.relax_enabled = (not static and stepper.settings.spin_relaxation
+        self.relax_enabled = (not static and stepper.options.spin_relaxation
                               and any(inter.has_spin_friction for inter in stepper.interactions))
 
     # -- residual / Jacobian --------------------------------------------------------------
