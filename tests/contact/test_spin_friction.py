@@ -114,6 +114,7 @@ def test_consistent_with_the_pair_kernel():
         spin = np.zeros(10)
         res = evaluate(z, pair)
         from knotsim.contact.surface_friction import surface_friction_pair  # the record of this z
+
         from .test_surface_friction import contact_inputs
         p = z[:12].copy()
         fc, dfc, ba, bb, dba, dbb, *_ = contact_inputs(p, pair)

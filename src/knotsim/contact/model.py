@@ -60,8 +60,8 @@ from knotsim.contact.assembly import (
 )
 from knotsim.contact.broadphase import find_candidate_pairs, node_drift
 from knotsim.contact.options import ContactOptions, StiffnessMode
-from knotsim.contact.swept import pass_through, swept_box_pairs
 from knotsim.contact.surface_friction import SpinFriction
+from knotsim.contact.swept import pass_through, swept_box_pairs
 from knotsim.errors import ConfigError
 from knotsim.geometry import exclusion
 from knotsim.solver._kernels import same_values
