@@ -52,6 +52,7 @@ KERNELS = [
     ('contact', 'knotsim.contact.assembly', 'pair_dofs_from_edges', ('int64[2C]', 'int64[2C]'), 0.29),
     ('contact', 'knotsim.contact.assembly', 'approach_forces', ('float64[1C]', 'float64[1C]', 'float64', 'int64[2C]', 'float64[1C]', 'float64', 'float64[1C]'), 2.47),
     ('contact', 'knotsim.contact.assembly', 'contact_evaluate_regularized_surface', ('float64[1C]', 'float64[1C]', 'float64', 'int64[2C]', 'float64[1C]', 'float64[1C]', 'float64', 'float64', 'float64', 'float64[1C]', 'bool', 'float64[3C]', 'int64[1C]', 'float64[1C]', 'float64[2C]', 'float64[2C]', 'float64[1C]', 'int64[2C]', 'float64[2C]', 'float64[2C]'), 13.58),
+    ('contact', 'knotsim.contact.surface_friction', 'spin_friction_terms', ('float64[1C]', 'int64[2C]', 'float64[2C]', 'float64', 'float64', 'float64[1C]', 'float64[3C]'), 1.5),
     ('contact', 'knotsim.solver._kernels', 'free_part', ('float64[1C]', 'bool[1C]', 'float64[1C]'), 0.14),
     ('contact', 'knotsim.contact.broadphase', 'node_drift', ('float64[1C]', 'float64[1C]', 'int64[1C]'), 0.44),
     ('contact', 'knotsim.contact._model_kernels', 'gap_summary', ('float64[1C]', 'float64[1C]', 'float64[1C]', 'float64'), 0.31),
