@@ -185,6 +185,18 @@ def _compile(entries) -> tuple[int, int]:
     return ok, failed
 
 
+def _ready(entry) -> bool:
+    """Whether the kernel of a manifest entry is compiled in this process (for its types) or in
+    numba's cache (for any types) already: the halves are split without it."""
+    disp = _dispatcher(entry[1], entry[2])
+    try:
+        if tuple(_type_from_text(a) for a in entry[3]) in disp.overloads:
+            return True
+    except (AttributeError, TypeError, ValueError):
+        return False
+    return bool(_is_cached(disp))
+
+
 def _halves(entries) -> tuple[list, list]:
     """Two lists of about equal compile time (largest first, each to the lighter side); in the
     manifest's order within each."""
@@ -229,11 +241,12 @@ def warm_up(parallel: bool = True, groups=("core", "contact", "topology")) -> di
     default settings and its knot-type check) from the manifest's argument types. With
     ``parallel`` half of the compile time goes to a second process (forked on Linux, else a new
     Python) while this one compiles the other half; the compiled code reaches this process through
-    numba's cache. Returns wall seconds ``total``, ``first`` (this process's half) and ``second``
+    numba's cache; kernels compiled or cached already are left out of the halves. Returns wall
+    seconds ``total``, ``first`` (this process's half) and ``second``
     (the other half, measured where it ran), their CPU seconds ``cpu.first`` and ``cpu.second``,
     and the numbers of ``kernels`` compiled and of manifest entries that ``failed``."""
     t0 = time.perf_counter()
-    entries = _manifest(groups)
+    entries = [e for e in _manifest(groups) if not _ready(e)]
     first, second = _halves(entries) if parallel else (entries, [])
     child = proc = None
     if second:
@@ -241,7 +254,7 @@ def warm_up(parallel: bool = True, groups=("core", "contact", "topology")) -> di
         if child is None:
             env = dict(os.environ, OMP_NUM_THREADS=os.environ.get("OMP_NUM_THREADS", "1"),
                        OPENBLAS_NUM_THREADS=os.environ.get("OPENBLAS_NUM_THREADS", "1"))
-            proc = subprocess.Popen([sys.executable, "-m", "knotsim._warmup", *groups, "--half", "1"], env=env,
+            proc = subprocess.Popen([sys.executable, "-m", "knotsim._warmup", "--entries", json.dumps(second)], env=env,
                                     stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     mine = _timed(first)
     theirs = None
@@ -386,18 +399,16 @@ def record(path=None) -> list[tuple]:
 
 
 if __name__ == "__main__":
-    # python -m knotsim._warmup GROUP ... [--half 0|1]: compile those groups (or one half of them)
-    # and print {"wall", "cpu", "kernels", "failed"} as JSON; --record [PATH]: rewrite the manifest
+    # python -m knotsim._warmup [GROUP ...]: compile those groups (default: a contact run's) and
+    # print {"wall", "cpu", "kernels", "failed"} as JSON; --entries JSON: compile those manifest
+    # entries (the second process of warm_up where fork is not used); --record [PATH]: rewrite the
+    # manifest
     _args = sys.argv[1:]
     if _args[:1] == ["--record"]:
         record(_args[1] if len(_args) > 1 else None)
     else:
-        _half = None
-        if "--half" in _args:
-            _i = _args.index("--half")
-            _half = int(_args[_i + 1])
-            del _args[_i:_i + 2]
-        _entries = _manifest(tuple(_args) or ("core", "contact", "topology"))
-        if _half is not None:
-            _entries = _halves(_entries)[_half]
+        if _args[:1] == ["--entries"]:
+            _entries = [tuple(e) for e in json.loads(_args[1])]
+        else:
+            _entries = _manifest(tuple(_args) or ("core", "contact", "topology"))
         sys.stdout.write(json.dumps(_timed(_entries)) + "\n")
