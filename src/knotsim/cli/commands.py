@@ -212,11 +212,11 @@ def warmup(serial: bool | None):
         serial = spare_cores() < 1.0
     was = kernels_cached()
     click.echo("compiling the numerical kernels (every contact law, obstacles)" + ("" if serial else ", 2 processes")
-               + ("; they are cached already, this checks and loads them" if was else "") + " ...", err=True)
+               + ("; those of a contact run are cached already" if was else "") + " ...", err=True)
     times = warm_up(parallel=not serial, groups=GROUPS)
-    second = "" if serial else f" and {times['second']:.1f} s in a second process"
+    second = f" and {times['second']:.1f} s in a second process" if times["second"] else ""
     cpu = times["cpu.first"] + times["cpu.second"]
-    click.echo(f"kernels ready in {times['total']:.1f} s ({times['kernels']} kernels: {times['first']:.1f} s here"
+    click.echo(f"kernels ready in {times['total']:.1f} s ({times['kernels']} compiled: {times['first']:.1f} s here"
                f"{second}; CPU time {cpu:.1f} s); cached: {'yes' if kernels_cached() else 'NO'}")
 
 
