@@ -138,8 +138,7 @@ def build_run(spec, *, duration: float | None = None, continue_from: str | os.Pa
     sim = build_simulation(cfg, description=description)
     if continue_from is None:
         for inter in sim.stepper.interactions:
-            if hasattr(inter, "check_start"):
-                inter.check_start(sim.state.q)
+            inter.check_start(sim.state.q)
     if continue_from is not None:
         d = Path(continue_from)
         ckpt_path = d / "checkpoint.npz"

@@ -15,7 +15,7 @@ import numpy as np
 
 from knotsim.errors import ConfigError, SimulationError, ValidityError
 from knotsim.solver.options import SolverOptions
-from knotsim.solver.state import State, initial_state
+from knotsim.solver.state import DriverMemory, RunMemory, State, initial_state
 from knotsim.solver.steplog import StepLog
 from knotsim.solver.stepper import StepFailure, Stepper, StepResult
 from knotsim.solver.validity import ValidityMonitor
@@ -47,20 +47,23 @@ class Simulation:
         self.model = model
         self.bcs = bcs
         self.options = options or SolverOptions()
-        own = bcs.interactions() if hasattr(bcs, "interactions") else []  # spring grips, feedback logs
+        own = bcs.interactions() if bcs is not None else []  # spring grips, feedback logs
         self.stepper = Stepper(model, [*interactions, *(i for i in own if all(i is not j for j in interactions))],
                                self.options)
         self.state = state.copy() if state is not None else initial_state(model)
         #: the validity guards (:mod:`knotsim.solver.validity`), checked on every converged step
         self.validity = ValidityMonitor(model, self.options.max_axial_strain, self.options.max_energy_gain,
                                         self.stepper.force_tol, self.stepper.interactions)
-        self.dt = self.options.dt
+        # the run's memory starts afresh (a state handed over from another run brings its rods only);
+        # the interactions bring the memory they hold (e.g. a contact stiffness from an earlier stage)
+        self.state.memory = RunMemory(driver=DriverMemory(dt=self.options.dt),
+                                      interactions={i.name: i.memory for i in self.stepper.interactions
+                                                    if i.memory is not None})
         self.dt_min = self.options.dt_min or self.options.dt / 1024.0
-        self._easy = 0
-        self._retry_cooldown = 0
-        #: ``(state, component states)`` just before a final step that was shortened to land on the
-        #: requested end time (see :meth:`resume_point`), else ``None``
-        self._before_short_step = None
+        #: ``(state, boundary-condition sections)`` just before a final step that was shortened to land
+        #: on the requested end time (the state's run memory a snapshot; see :meth:`resume_point`),
+        #: else ``None``
+        self._before_short_step: tuple[State, dict] | None = None
         #: end time (s) a restored checkpoint's run was asked to reach (see :meth:`run`)
         self._continue_end: float | None = None
         #: the running sum of steps before it was set to the requested end time (see :meth:`advance`)
@@ -69,12 +72,25 @@ class Simulation:
         #: packed by columns; the newest rows are live dicts)
         self.rows: StepLog = StepLog()
         self._row_keys: dict = {}
-        self.n_failures = 0
         #: the run description (``run.toml``), or ``None``
         self.config: dict | None = config
         #: ``[(name, t_start, t_end), ...]`` (s): stages of the run description; each log row names
         #: the stage its step belongs to (column ``stage``).
         self.stages: list[tuple[str, float, float]] = list(stages)
+
+    @property
+    def dt(self) -> float:
+        """The current step size (s) of the adaptive step policy (``state.memory.driver``)."""
+        return self.state.memory.driver.dt
+
+    @dt.setter
+    def dt(self, value: float) -> None:
+        self.state.memory.driver.dt = float(value)
+
+    @property
+    def n_failures(self) -> int:
+        """Failed step attempts so far (retried with a halved step)."""
+        return self.state.memory.driver.n_failures
 
     # ------------------------------------------------------------------ stepping
     def step(self) -> StepResult:
@@ -83,24 +99,27 @@ class Simulation:
 
     def _advance_one(self, t_end: float) -> StepResult:
         attempts = 0
+        d = self.state.memory.driver  # (shared by the trial states: the policy's memory)
         while True:
-            h = min(self.dt, t_end - self.state.time)
-            if abs(h - self.dt) <= 1e-9 * self.dt:
-                h = self.dt  # the last step ends within round-off of t_end: take the full step
-            shortened = h < self.dt
+            h = min(d.dt, t_end - self.state.time)
+            if abs(h - d.dt) <= 1e-9 * d.dt:
+                h = d.dt  # the last step ends within round-off of t_end: take the full step
+            shortened = h < d.dt
             if shortened and attempts == 0:
-                self._before_short_step = (self.state.copy(), _copy_sections(self.component_states()))
+                before = self.state.copy()
+                before.memory = self.state.memory.snapshot()
+                self._before_short_step = (before, _copy_sections(self._bc_sections()))
             trial = self.state.copy()
             attempts += 1
-            # retries of a failed step use full Newton; the steps after it return to the default
-            self.stepper.full_newton = attempts > 1 or self._retry_cooldown > 0
             try:
-                res = self.stepper.step(self.state, trial, self.bcs, h)
+                # retries of a failed step use full Newton; the steps after it return to the default
+                res = self.stepper.step(self.state, trial, self.bcs, h,
+                                        full_newton=attempts > 1 or d.retry_cooldown > 0)
             except StepFailure as exc:
-                self.n_failures += 1
-                self.dt = h / 2.0
-                self._easy = 0
-                if self.dt < self.dt_min:
+                d.n_failures += 1
+                d.dt = h / 2.0
+                d.easy = 0
+                if d.dt < self.dt_min:
                     raise SimulationError(
                         f"time step fell below dt_min={self.dt_min:.3g} s at t={self.state.time:.6g} s: {exc}. "
                         "The last good state is attached (exception.last_good_state); try a smaller dt, "
@@ -116,14 +135,14 @@ class Simulation:
             if not shortened:
                 self._before_short_step = None
             res.attempts = attempts
-            self._retry_cooldown = self.options.grow_after if attempts > 1 else max(0, self._retry_cooldown - 1)
+            d.retry_cooldown = self.options.grow_after if attempts > 1 else max(0, d.retry_cooldown - 1)
             if res.iterations <= self.options.easy_iterations:
-                self._easy += 1
+                d.easy += 1
             else:
-                self._easy = 0
-            if self._easy >= self.options.grow_after and self.dt < self.options.dt:
-                self.dt = min(2.0 * self.dt, self.options.dt)
-                self._easy = 0
+                d.easy = 0
+            if d.easy >= self.options.grow_after and d.dt < self.options.dt:
+                d.dt = min(2.0 * d.dt, self.options.dt)
+                d.easy = 0
             self.rows.append(self._row(res))
             return res
 
@@ -229,40 +248,27 @@ class Simulation:
         return self.rows.to_frame()
 
     # ------------------------------------------------------------------ checkpoints
-    def component_states(self) -> dict[str, tuple[dict, dict]]:
-        """What decides the next step besides :attr:`state`, by component: ``{prefix: (scalars,
-        arrays)}`` for the adaptive step policy (``"driver"``), the stepper, every interaction with
-        a ``save_state`` method and every boundary-condition group (``"bc/<name>"``)."""
-        out: dict[str, tuple[dict, dict]] = {
-            "driver": ({"dt": float(self.dt), "easy": int(self._easy), "retry_cooldown": int(self._retry_cooldown),
-                        "n_failures": int(self.n_failures)}, {})}
-        out["stepper"] = self.stepper.save_state()
-        out["validity"] = self.validity.save_state()
-        for inter in self.stepper.interactions:
-            if hasattr(inter, "save_state"):
-                out[f"interaction/{inter.name}"] = inter.save_state()
-        if self.bcs is not None:
-            for name, sec in self.bcs.save_state().items():
-                out[f"bc/{name}"] = sec
-        return out
+    def _bc_sections(self) -> dict[str, tuple[dict, dict]]:
+        return self.bcs.save_state() if self.bcs is not None else {}
 
-    def resume_point(self):
-        """``(state, component states, end_time)`` to continue this run from.
+    def resume_point(self) -> tuple[State, dict[str, tuple[dict, dict]], float]:
+        """``(state, boundary-condition sections, end_time)`` to continue this run from.
 
-        The current state, unless the last step was shortened to land on the requested end time:
-        then the state just before that step, so that a continued run takes the same steps as an
-        uninterrupted one (a run of 2T and a run of T continued for T end in the same state).
-        ``end_time`` is the time the run reached (s). The state keeps the time as the running sum of
-        its steps (before the run landed it exactly on ``end_time``), so that time-dependent
-        boundary conditions see the same times in the continued run as in an uninterrupted one."""
+        The current state (with its :class:`~knotsim.solver.state.RunMemory`), unless the last step
+        was shortened to land on the requested end time: then the state just before that step, so
+        that a continued run takes the same steps as an uninterrupted one (a run of 2T and a run of T
+        continued for T end in the same state). ``end_time`` is the time the run reached (s). The
+        state keeps the time as the running sum of its steps (before the run landed it exactly on
+        ``end_time``), so that time-dependent boundary conditions see the same times in the
+        continued run as in an uninterrupted one."""
         if self._before_short_step is not None:
-            state, comps = self._before_short_step
-            return state, comps, float(self.state.time)
+            state, bc = self._before_short_step
+            return state, bc, float(self.state.time)
         state = self.state
         if self._unsnapped_time is not None and abs(self._unsnapped_time - state.time) < 1e-9:
             state = state.copy()
             state.time = self._unsnapped_time
-        return state, self.component_states(), float(self.state.time)
+        return state, self._bc_sections(), float(self.state.time)
 
     def save_checkpoint(self, path) -> None:
         """Write everything that decides the next step to ``path`` (see :mod:`knotsim.io.checkpoint`)."""
@@ -273,28 +279,21 @@ class Simulation:
     def restore(self, checkpoint, *, boundary_conditions: bool = True) -> None:
         """Continue from ``checkpoint`` (a :class:`~knotsim.io.checkpoint.Checkpoint` or a path).
 
-        The state, the stepper's memory, the adaptive step and the interactions' states are
-        restored; with ``boundary_conditions`` also the anchors of the groups that exist in both
-        (``False`` when the continuation brings new boundary conditions: they capture their anchors
-        afresh when they act)."""
-        from knotsim.io.checkpoint import check_layout, read_checkpoint
+        The state and its run memory (the stepper's, the adaptive step's, the validity guards' and
+        the interactions') are restored; with ``boundary_conditions`` also the anchors of the groups
+        that exist in both (``False`` when the continuation brings new boundary conditions: they
+        capture their anchors afresh when they act)."""
+        from knotsim.io.checkpoint import Checkpoint, check_layout, read_checkpoint
 
-        if not hasattr(checkpoint, "arrays"):
+        if not isinstance(checkpoint, Checkpoint):
             checkpoint = read_checkpoint(checkpoint)
         check_layout(checkpoint, self.model)
-        self.state = checkpoint.state()
+        self.state = checkpoint.state(self.state.memory)
+        for inter in self.stepper.interactions:  # (they would take it at the next step: now, to be seen at once)
+            mem = self.state.memory.interactions.get(inter.name)
+            if mem is not None and mem is not inter.memory:
+                inter.use_memory(mem)
         self._continue_end = checkpoint.end_time
-        meta, _ = checkpoint.section("driver")
-        if meta:
-            self.dt = float(meta["dt"])
-            self._easy = int(meta["easy"])
-            self._retry_cooldown = int(meta["retry_cooldown"])
-            self.n_failures = int(meta["n_failures"])
-        self.stepper.load_state(*checkpoint.section("stepper"))
-        self.validity.load_state(*checkpoint.section("validity"))
-        for inter in self.stepper.interactions:
-            if hasattr(inter, "load_state"):
-                inter.load_state(*checkpoint.section(f"interaction/{inter.name}"))
         if boundary_conditions and self.bcs is not None:
             self.bcs.load_state({name: checkpoint.section(f"bc/{name}") for name in self.bcs.groups},
                                 checkpoint.time)

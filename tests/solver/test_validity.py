@@ -146,6 +146,9 @@ class _AntiDamping:
     rod, and nothing counts its work (a stand-in for an unstable interaction)."""
 
     name = "antidamping"
+    memory = None
+    k_c = None
+    pattern_version = 0
 
     def __init__(self, model, c):
         self.model, self.c = model, c
@@ -171,6 +174,21 @@ class _AntiDamping:
 
     def spin_friction(self):
         return None
+
+    def supplied_work(self, q_prev, q, dt):
+        return 0.0  # its work is deliberately not counted
+
+    def untracked_sources(self):
+        return []
+
+    def check_start(self, q):
+        pass
+
+    def use_memory(self, memory):
+        pass
+
+    def describe_near(self, q, node):
+        return ""
 
 
 def _swinging_rod(interactions=()):

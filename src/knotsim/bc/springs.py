@@ -29,6 +29,12 @@ class BCInteraction:
     """Spring forces and feedback logs of a :class:`~knotsim.bc.BoundaryConditions`."""
 
     name = "bc"
+    #: no run memory of its own (the groups' anchors are the boundary conditions' memory)
+    memory = None
+    #: no penalty stiffness
+    k_c = None
+    #: constant: the blocks are the spring nodes' coordinates for the whole run
+    pattern_version = 0
 
     def __init__(self, bcs):
         self.bcs = bcs
@@ -90,6 +96,15 @@ class BCInteraction:
 
     def check(self, q: np.ndarray) -> str | None:
         return None
+
+    def use_memory(self, memory) -> None:
+        """Nothing to take (no run memory of its own)."""
+
+    def check_start(self, q: np.ndarray) -> None:
+        """Nothing to check: springs act from their anchors wherever the nodes start."""
+
+    def describe_near(self, q: np.ndarray, node: int) -> str:
+        return ""
 
     def supplied_work(self, q_prev: np.ndarray, q: np.ndarray, dt: float) -> float:
         """Work (J) the springs' moving anchors did on the rods during the accepted step from

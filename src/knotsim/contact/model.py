@@ -80,7 +80,35 @@ CROSSING_TOL = 0.01
 #: fraction of ``margin`` at a Jacobian evaluation (:meth:`Contact.block_dofs`).
 BLOCK_BAND_FRACTION = 0.5
 
-__all__ = ["Contact", "ContactOptions", "StiffnessMode", "contact_from_config"]
+__all__ = ["Contact", "ContactMemory", "ContactOptions", "StiffnessMode", "contact_from_config"]
+
+
+@dataclass
+class ContactMemory:
+    """What a :class:`Contact` remembers across steps (run memory, carried by the state and written
+    to checkpoints field by field): the stiffness ``k_c`` (N/m), the largest nodal contact force of
+    the last accepted step (N) and the largest step seen (s) that drive it, the number of broad-phase
+    rebuilds, the Verlet pair list ``pairs (k, 2)``, which of them have Jacobian blocks
+    ``block_mask (k,)`` and the positions ``q_build`` the list was built at (``None``: build it)."""
+
+    k_c: float = math.nan
+    fmax_accepted: float = 0.0
+    dt_ref: float = 0.0
+    n_rebuilds: int = 0
+    pairs: np.ndarray | None = None
+    block_mask: np.ndarray | None = None
+    q_build: np.ndarray | None = None
+
+
+def _memory_field(name: str, doc: str) -> property:
+    """An attribute of :class:`Contact` kept in its run memory (:class:`ContactMemory`)."""
+    def get(self):
+        return getattr(self.memory, name)
+
+    def set_(self, value):
+        setattr(self.memory, name, value)
+
+    return property(get, set_, doc=doc)
 
 
 
@@ -116,7 +144,17 @@ class Contact:
 
     name = "contact"
 
+    k_c = _memory_field("k_c", "current contact stiffness (N/m)")
+    n_rebuilds = _memory_field("n_rebuilds", "number of broad-phase rebuilds of the pair list")
+    pairs = _memory_field("pairs", "(k, 2) int64, candidate edge pairs of the current step")
+    _fmax_accepted = _memory_field("fmax_accepted", "N")
+    _dt_ref = _memory_field("dt_ref", "s")
+    _block_mask = _memory_field("block_mask", "(k,) bool")
+    _q_build = _memory_field("q_build", "positions the pair list was built at, or None")
+
     def __init__(self, model, options: ContactOptions | None = None):
+        #: the run memory in use (see :meth:`begin_step`)
+        self.memory = ContactMemory()
         self.model = model
         self.options = options or ContactOptions()
         self.options.validate()
@@ -162,18 +200,17 @@ class Contact:
         self._pair_keys = np.zeros(0, np.int64)
         self._q_build = None
         self._node_xyz = m.node_dof[:, None] + np.arange(3)[None, :]
-        #: number of broad-phase rebuilds of the pair list
         self.n_rebuilds = 0
         #: incremented whenever :meth:`block_dofs` changes (the stepper re-analyses the pattern)
         self.pattern_version = 0
         self._q_prev = None
         self._dt = 1.0
         #: ``(q, q_build, drift)`` of the last :meth:`_max_displacement` (reused at the same q)
-        self._drift_at = None
+        self._drift_at: tuple | None = None
         #: ``(key, tol, reach)`` of the swept test of the listed pairs (:meth:`check`)
         self._swept_limits = None
         #: ``(pair_dofs, q, (k, 4) distances at q)`` of the last swept test that found no crossing
-        self._swept_end = None
+        self._swept_end: tuple | None = None
         self._last = _NO_EVAL
         self._stats: dict = {}
         self.timers = {"broad_phase": 0.0, "narrow_phase": 0.0}
@@ -240,6 +277,11 @@ class Contact:
         """
         m = self.model
         s = self.options
+        mem = state_in.memory.interactions.get(self.name)
+        if mem is None:
+            state_in.memory.interactions[self.name] = self.memory
+        elif mem is not self.memory:
+            self.use_memory(mem)
         t0 = time.perf_counter()
         q = state_in.q
         if self._max_displacement(q) > REBUILD_FRACTION * s.margin:
@@ -471,31 +513,26 @@ class Contact:
         :func:`knotsim.contact.diagnostics.check_start`)."""
         diagnostics.check_start(self, q)
 
-    def save_state(self) -> tuple[dict, dict]:
-        """What decides the next steps besides the rods' state: the stiffness ``k_c`` and the forces
-        that drive it, and the Verlet pair list with the positions it was built at. ``(scalars,
-        arrays)`` for :mod:`knotsim.io.checkpoint`."""
-        meta = {"k_c": float(self.k_c), "fmax_accepted": float(self._fmax_accepted), "dt_ref": float(self._dt_ref),
-                "n_rebuilds": int(self.n_rebuilds), "pattern_version": int(self.pattern_version),
-                "has_build": self._q_build is not None}
-        arrays = {"pairs": self.pairs, "block_mask": self._block_mask}
-        if self._q_build is not None:
-            arrays["q_build"] = self._q_build
-        return meta, arrays
+    def use_memory(self, mem: ContactMemory) -> None:
+        """Continue from the run memory ``mem`` (restored from a checkpoint): its stiffness, pair list
+        (with the blocks it had; without a mask, blocks come back at the first evaluation) and the
+        positions the list was built at."""
+        self.memory = mem
+        pairs = mem.pairs if mem.pairs is not None else np.zeros((0, 2), np.int64)
+        mask = mem.block_mask
+        self._set_pairs(np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2))
+        if mask is not None and np.size(mask) == self.pairs.shape[0]:
+            self._set_blocks(np.asarray(mask, bool).reshape(-1))
+        if mem.q_build is not None:
+            mem.q_build = np.array(mem.q_build, float)
 
-    def load_state(self, meta: dict, arrays: dict) -> None:
-        """Restore what :meth:`save_state` returned (nothing to do for an empty section)."""
-        if not meta:
-            return
-        self.k_c = float(meta["k_c"])
-        self._fmax_accepted = float(meta["fmax_accepted"])
-        self._dt_ref = float(meta["dt_ref"])
-        self.n_rebuilds = int(meta["n_rebuilds"])
-        self._set_pairs(np.ascontiguousarray(arrays["pairs"], dtype=np.int64).reshape(-1, 2))
-        if "block_mask" in arrays:  # else (older checkpoints) blocks are given at the first evaluation
-            self._set_blocks(np.asarray(arrays["block_mask"], bool).reshape(-1))
-        self.pattern_version = int(meta["pattern_version"]) + 1
-        self._q_build = np.array(arrays["q_build"], float) if meta["has_build"] else None
+    def supplied_work(self, q_prev, q, dt) -> float:
+        """0: rope-rope contact has no moving source."""
+        return 0.0
+
+    def untracked_sources(self) -> list[str]:
+        """None: the work of a changed ``k_c`` is counted (see :mod:`knotsim.solver.validity`)."""
+        return []
 
     def describe_near(self, q, node: int) -> str:
         """Text naming a candidate pair that has ``node`` (global node number) on one of its edges

@@ -44,7 +44,7 @@ of knotsim before the surface model, bit for bit).
 Free spin: a capsule or sphere given ``spin_inertia`` (kg m²) turns freely on a frictionless axle,
 the capsule about its own axis, the sphere about ``spin_axis`` (through its centre) or, without
 one, about any axis (a ball joint, isotropic inertia); ``initial_spin`` (rad/s, a 3-vector,
-projected on the free axes) starts it. The spin ``ω`` is run state (saved by :meth:`save_state`)
+projected on the free axes) starts it. The spin ``ω`` is run memory (:class:`ObstacleMemory`)
 and logged as ``<name>_spin_x, _spin_y, _spin_z`` (rad/s). It is advanced once per accepted step,
 implicitly with the rods' state of that step frozen (a staggered scheme, see
 :func:`~knotsim.contact.obstacle_surface_kernels.spin_update`): ``I (ω_{n+1} − ω_n)/dt`` equals the
@@ -63,6 +63,7 @@ Reaction: :meth:`Obstacle.stats` logs the force (N) the rods exert on the obstac
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -72,7 +73,7 @@ from knotsim.contact.obstacle_surface_kernels import STENCIL, obstacle_surface_e
 from knotsim.contact.obstacle_swept import NODE, describe, first_pass_through, obstacle_edges
 from knotsim.errors import ConfigError, GeometryError
 
-__all__ = ["Capsule", "Obstacle", "Plane", "Sphere", "rotation_matrix"]
+__all__ = ["Capsule", "Obstacle", "ObstacleMemory", "Plane", "Sphere", "rotation_matrix"]
 
 #: Weight of the new target in the downward moving average of the adaptive stiffness (per step).
 STIFFNESS_RELAX = 0.02
@@ -80,6 +81,34 @@ STIFFNESS_RELAX = 0.02
 FRICTION_MODELS = ("surface", "centreline")
 #: Factor applied to an adaptive stiffness after a step rejected for penetration.
 PENETRATION_BOOST = 4.0
+
+
+@dataclass
+class ObstacleMemory:
+    """What an :class:`Obstacle` remembers across steps (run memory, carried by the state and written
+    to checkpoints field by field): the stiffness ``k_c`` (N/m), the largest node contact force of
+    the last accepted step (N) and the largest step seen (s) that drive it, the start its path was
+    bound to (m, or ``None``) and the free spin ``ω (3,)`` (rad/s; ``None`` without ``spin_inertia``)."""
+
+    k_c: float = math.nan
+    fmax_accepted: float = 0.0
+    dt_ref: float = 0.0
+    path_start: np.ndarray | None = None
+    spin: np.ndarray | None = None
+
+
+def _memory_field(name: str) -> property:
+    def get(self):
+        return getattr(self.memory, name)
+
+    def set_(self, value):
+        setattr(self.memory, name, value)
+
+    return property(get, set_, doc=f"``{name}`` of the run memory (:class:`ObstacleMemory`)")
+
+
+_NO_SPIN = np.zeros(3)
+_NO_SPIN.flags.writeable = False
 
 
 def rotation_matrix(rotvec) -> np.ndarray:
@@ -166,6 +195,18 @@ class Obstacle:
 
     kind = -1
     type_name = ""
+    k_c = _memory_field("k_c")
+    _fmax_accepted = _memory_field("fmax_accepted")
+    _dt_ref = _memory_field("dt_ref")
+
+    @property
+    def spin(self) -> np.ndarray:
+        """Free spin ``ω (3,)`` (rad/s; zeros without ``spin_inertia``)."""
+        return self.memory.spin if self.memory.spin is not None else _NO_SPIN
+
+    @spin.setter
+    def spin(self, value) -> None:
+        self.memory.spin = value
 
     def __init__(self, model, name: str, *, mu: float = 0.0, delta: float = 5e-4, nu: float = 1e-4,
                  stiffness: float | None = None, stiffness_scaler: float = 500.0, penetration_limit: float = 0.2,
@@ -174,6 +215,8 @@ class Obstacle:
         if not isinstance(name, str) or not name:
             raise ConfigError("obstacle.name", f"an obstacle needs a non-empty name, got {name!r}")
         self.name = name
+        #: the run memory in use (see :meth:`begin_step`)
+        self.memory = ObstacleMemory()
         f = f"obstacles.{name}"
         self.model = model
         self.mu = _number(f"{f}.mu", mu, allow_zero=True)
@@ -192,6 +235,8 @@ class Obstacle:
         self.omega = np.zeros(3) if angular_velocity is None else _vec3(f"{f}.angular_velocity", angular_velocity)
         self._center0 = None if pivot is None else _vec3(f"{f}.pivot", pivot)
         self._init_spin(f, spin_inertia, spin_axis, initial_spin, angular_velocity, pivot)
+        if self.spin_inertia is None:
+            self.memory.spin = None
         m = model
         if rods is None:
             sel = np.arange(m.n_rods)
@@ -230,6 +275,7 @@ class Obstacle:
         self._set_pose(0.0, 1.0)
         if self.path is not None:
             self.path.bind(self.pivot(0.0))
+            self.memory.path_start = self.path.bound_state()
             start = self.path.absolute_start
             if start is not None and np.linalg.norm(start - self._ref0) > 1e-9 * max(1.0, float(np.abs(self._ref0).max())):
                 raise ConfigError(f"{f}.waypoints", f"absolute waypoints start at {start.tolist()} m but the "
@@ -302,7 +348,13 @@ class Obstacle:
 
     # ------------------------------------------------------------------ Interaction protocol
     def begin_step(self, state_in, dt: float) -> None:
-        """Pose at the end of the step and, adaptive, the stiffness for it."""
+        """Pose at the end of the step and, adaptive, the stiffness for it (with the run memory
+        ``state_in`` carries, see :class:`ObstacleMemory`)."""
+        mem = state_in.memory.interactions.get(self.name)
+        if mem is None:
+            state_in.memory.interactions[self.name] = self.memory
+        elif mem is not self.memory:
+            self.use_memory(mem)
         self._step_start = (state_in.time, dt, state_in.q)
         self._set_pose(state_in.time + dt, dt)
         if self.stiffness is not None or not self.nodes.size:
@@ -515,29 +567,24 @@ class Obstacle:
         return (np.array([s[f"{n}_fx"], s[f"{n}_fy"], s[f"{n}_fz"]]),
                 np.array([s[f"{n}_mx"], s[f"{n}_my"], s[f"{n}_mz"]]))
 
-    # ------------------------------------------------------------------ checkpoints
-    def save_state(self) -> tuple[dict, dict]:
-        """Stiffness memory and the path's bound start, ``(scalars, arrays)`` for checkpoints."""
-        meta = {"k_c": float(self.k_c), "fmax_accepted": float(self._fmax_accepted), "dt_ref": float(self._dt_ref)}
-        arrays = {}
-        bound = self.path.bound_state() if self.path is not None else None
-        if bound is not None:
-            arrays["path_start"] = bound
-        if self.spin_inertia is not None:
-            arrays["spin"] = self.spin.copy()
-        return meta, arrays
+    # ------------------------------------------------------------------ run memory
+    def use_memory(self, mem: ObstacleMemory) -> None:
+        """Continue from the run memory ``mem`` (restored from a checkpoint)."""
+        self.memory = mem
+        if self.path is not None and mem.path_start is not None:
+            self.path.bind(np.array(mem.path_start, float))
+        if self.spin_inertia is None:
+            mem.spin = None
+        elif mem.spin is not None:
+            mem.spin = np.array(mem.spin, float)
 
-    def load_state(self, meta: dict, arrays: dict) -> None:
-        """Restore what :meth:`save_state` returned (nothing to do for an empty section)."""
-        if not meta:
-            return
-        self.k_c = float(meta["k_c"])
-        self._fmax_accepted = float(meta["fmax_accepted"])
-        self._dt_ref = float(meta["dt_ref"])
-        if self.path is not None and "path_start" in arrays:
-            self.path.bind(np.array(arrays["path_start"], float))
-        if self.spin_inertia is not None and "spin" in arrays:
-            self.spin = np.array(arrays["spin"], float)
+    def untracked_sources(self) -> list[str]:
+        """None: :meth:`supplied_work` counts the work of the obstacle's motion."""
+        return []
+
+    def describe_near(self, q, node: int) -> str:
+        """"" (failure messages name the obstacle in its own reasons)."""
+        return ""
 
 
 class Plane(Obstacle):

@@ -4,10 +4,13 @@ A checkpoint holds
 
 - the :class:`~knotsim.solver.state.State` (positions and edge angles ``q``, rates ``v``,
   reference directors, tangents, reference twist, time);
-- the stepper's memory: the previous step's start velocity and size (acceleration predictor);
-- the adaptive step policy: current step, easy-step count, retry cool-down, failures so far;
-- each interaction's state (contact: stiffness ``k_c``, the force driving it, the Verlet pair
-  list and the positions it was built at);
+- its run memory (:class:`~knotsim.solver.state.RunMemory`), written and read here and nowhere
+  else: the stepper's (the previous step's start velocity and size for the acceleration predictor,
+  the Jacobian the next step may start from, the sparse LU's ordering memory), the adaptive step
+  policy's (current step, easy-step count, retry cool-down, failures so far), the validity guards'
+  and each interaction's (contact: stiffness ``k_c``, the force driving it, the Verlet pair list
+  and the positions it was built at; an interaction's memory is a dataclass of numbers and arrays,
+  written field by field);
 - each boundary-condition group's captured anchor (positions and angles it prescribes from, the
   time they were captured, and the start point of a ``from_current`` path);
 - the model's layout (rod names, node and edge counts, closed flags, radii), checked on restore.
@@ -15,26 +18,42 @@ A checkpoint holds
 When the run's last step was shortened to land on the requested end time, the checkpoint holds
 the state just before that step (and the end time reached), so that the continuation takes the
 same steps as an uninterrupted run. Restoring a checkpoint into a simulation built from the same
-run description continues the run exactly: a run of ``2T`` and a run of ``T`` continued for ``T`` end in the same state (see
-``tests/test_restart.py``). Arrays are stored under flat keys (``state/q``, ``bc/<name>/anchor``,
-``interaction/<name>/pairs``) with the scalars as one JSON document (``meta``).
+run description continues the run exactly: a run of ``2T`` and a run of ``T`` continued for ``T``
+end in the same state (see ``tests/run/test_restart_and_replay.py``). Arrays are stored under flat
+keys (``state/q``, ``bc/<name>/anchor``, ``interaction/<name>/pairs``) with the scalars as one JSON
+document (``meta``; the sections' scalars under ``meta["components"][prefix]``). ``meta["run_state"]``
+numbers the layout of the sections (2; checkpoints without it, written before the run memory moved
+into the state, have the same layout and load alike).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from knotsim._version import __version__
 from knotsim.errors import ConfigError
+from knotsim.solver.state import (
+    DriverMemory,
+    JacobianMemory,
+    PredictorMemory,
+    RunMemory,
+    State,
+    StepMemory,
+    ValidityMemory,
+)
 
 __all__ = ["Checkpoint", "RodFrame", "read_checkpoint", "write_checkpoint"]
 
 FORMAT = "knotsim-checkpoint-1"
+#: layout of the run-memory sections (see the module docstring)
+RUN_STATE = 2
 _STATE_KEYS = ("q", "v", "d1", "tangents", "ref_twist")
 
 
@@ -59,11 +78,16 @@ class Checkpoint:
         ends at ``end_time + T``."""
         return float(self.meta.get("end_time", self.meta["time"]))
 
-    def state(self):
-        """The saved :class:`~knotsim.solver.state.State`."""
-        from knotsim.solver.state import State
-
-        return State(*(self.arrays[f"state/{k}"].copy() for k in _STATE_KEYS), self.time)
+    def state(self, memory: RunMemory | None = None) -> State:
+        """The saved :class:`~knotsim.solver.state.State`; with ``memory`` (the run memory of the
+        simulation it goes into, whose interaction sections give the types to read into) also its
+        run memory (without: an empty one)."""
+        a = self.arrays
+        st = State(a["state/q"].copy(), a["state/v"].copy(), a["state/d1"].copy(), a["state/tangents"].copy(),
+                   a["state/ref_twist"].copy(), self.time)
+        if memory is not None:
+            st.memory = read_memory(self, memory)
+        return st
 
     def section(self, prefix: str) -> tuple[dict, dict[str, np.ndarray]]:
         """Scalars and arrays saved by one component (``"stepper"``, ``"bc/left"``, ...)."""
@@ -124,7 +148,8 @@ def write_checkpoint(path: str | os.PathLike, sim) -> Path:
     """Write the complete state of ``sim`` (a :class:`~knotsim.simulation.Simulation`) to ``path``
     (atomically: a temporary file, then a rename)."""
     p = Path(path)
-    st, sections, end_time = sim.resume_point()
+    st, bc_sections, end_time = sim.resume_point()
+    sections = {**memory_sections(st.memory), **{f"bc/{name}": sec for name, sec in bc_sections.items()}}
     arrays: dict[str, np.ndarray] = {f"state/{k}": np.asarray(getattr(st, k)) for k in _STATE_KEYS}
     arrays["layout/node_dof"] = np.asarray(sim.model.node_dof)
     arrays["layout/edge_theta_dof"] = np.asarray(sim.model.edge_theta_dof)
@@ -134,7 +159,8 @@ def write_checkpoint(path: str | os.PathLike, sim) -> Path:
         components[prefix] = meta
         for k, a in arrs.items():
             arrays[f"{prefix}/{k}"] = np.asarray(a)
-    meta = {"format": FORMAT, "knotsim_version": __version__, "time": float(st.time), "end_time": end_time,
+    meta = {"format": FORMAT, "run_state": RUN_STATE, "knotsim_version": __version__, "time": float(st.time),
+            "end_time": end_time,
             "layout": _layout(sim.model), "components": components}
     tmp = p.with_name(f".{p.name}.tmp.npz")
     np.savez(tmp, meta=np.array(json.dumps(meta)), **arrays)
@@ -167,3 +193,135 @@ def check_layout(checkpoint: Checkpoint, model) -> None:
             raise ConfigError("from", f"the checkpoint was saved from rods with {key} = {saved[key]}, but the run "
                                       f"description gives {now[key]}; continue with the same rods (node counts, "
                                       "open/closed) as the saved run")
+
+
+# ---------------------------------------------------------------------- the run memory
+Section = tuple[dict, dict[str, np.ndarray]]
+
+
+def memory_sections(memory: RunMemory) -> dict[str, Section]:
+    """The sections of ``memory`` as ``{prefix: (scalars, arrays)}`` (``"driver"``, ``"stepper"``,
+    ``"validity"``, ``"interaction/<name>"``)."""
+    out = {"driver": (_scalars(memory.driver), {}), "stepper": _step_out(memory.step),
+           "validity": _validity_out(memory.validity)}
+    for name, mem in memory.interactions.items():
+        if mem is not None:
+            out[f"interaction/{name}"] = _fields_out(mem)
+    return out
+
+
+def read_memory(checkpoint: Checkpoint, template: RunMemory) -> RunMemory:
+    """The run memory saved in ``checkpoint``; ``template``'s interaction sections give the types
+    (each saved field replaces the template's default, a field not saved keeps its default)."""
+    meta, _ = checkpoint.section("driver")
+    driver = DriverMemory(**{f.name: meta[f.name] for f in dataclasses.fields(DriverMemory) if f.name in meta})
+    if not meta:
+        driver = dataclasses.replace(template.driver)
+    inter = {}
+    for name, mem in template.interactions.items():
+        meta, arrays = checkpoint.section(f"interaction/{name}")
+        # an interaction the checkpoint has nothing of keeps the memory it brings
+        inter[name] = mem if mem is None or not (meta or arrays) else _fields_in(type(mem), meta, arrays)
+    return RunMemory(driver, _step_in(*checkpoint.section("stepper")), _validity_in(*checkpoint.section("validity")),
+                     inter, {})
+
+
+def _scalars(obj) -> dict:
+    return {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)}
+
+
+def _fields_out(mem) -> Section:
+    """A dataclass of numbers, strings and arrays (``None``: not written) as a section."""
+    meta: dict[str, Any] = {}
+    arrays: dict[str, np.ndarray] = {}
+    for f in dataclasses.fields(mem):
+        v = getattr(mem, f.name)
+        if v is None:
+            continue
+        if isinstance(v, np.ndarray):
+            arrays[f.name] = v
+        else:
+            meta[f.name] = v.item() if isinstance(v, np.generic) else v
+    return meta, arrays
+
+
+def _fields_in(cls, meta: dict, arrays: dict[str, np.ndarray]):
+    """The dataclass ``cls`` from a section written by :func:`_fields_out` (fields not in it keep
+    their defaults)."""
+    kw: dict[str, Any] = {}
+    for f in dataclasses.fields(cls):
+        if f.name in arrays:
+            kw[f.name] = np.array(arrays[f.name], copy=True)
+        elif f.name in meta:
+            kw[f.name] = meta[f.name]
+    return cls(**kw)
+
+
+def _step_out(mem: StepMemory) -> Section:
+    meta: dict[str, Any] = {"history": False}
+    arrays: dict[str, np.ndarray] = {}
+    p = mem.predictor
+    if p is not None:
+        meta = {"history": True, "time": float(p.time), "dt": float(p.dt)}
+        arrays["v_prev"] = p.v_prev
+    if mem.ordering is not None:
+        meta.update(ordering_nnz_l=int(mem.ordering[1]), ordering_nnz_a=int(mem.ordering[2]))
+        arrays["ordering_perm"] = mem.ordering[0]
+    j = mem.jacobian
+    if j is not None:
+        meta.update(last_iterations=int(j.last_iterations), jacobian_dt=float(j.dt), jacobian_kind=j.kind,
+                    n_interaction_blocks=len(j.blocks))
+        arrays["jacobian_fixed"] = np.asarray(j.fixed, bool)
+        for i, b in enumerate(j.blocks):
+            arrays[f"jacobian_blocks_{i}"] = np.asarray(b, np.int64)
+        if j.banded is not None:
+            ab, kl, ku, symmetric = j.banded
+            meta.update(jacobian_kl=int(kl), jacobian_ku=int(ku), jacobian_symmetric=bool(symmetric))
+            arrays["jacobian_banded"] = np.asarray(ab)
+        elif j.sparse is not None:
+            indptr, indices, data = j.sparse
+            arrays.update(jacobian_indptr=indptr, jacobian_indices=indices, jacobian_data=data)
+    return meta, arrays
+
+
+def _step_in(meta: dict, arrays: dict[str, np.ndarray]) -> StepMemory:
+    predictor = None
+    if meta.get("history"):
+        predictor = PredictorMemory(float(meta["time"]), np.array(arrays["v_prev"], float), float(meta["dt"]))
+    ordering = None
+    if "ordering_nnz_l" in meta:
+        ordering = (np.array(arrays["ordering_perm"]), int(meta["ordering_nnz_l"]), int(meta["ordering_nnz_a"]))
+    jac = None
+    if "jacobian_kind" in meta:
+        blocks = tuple(np.array(arrays[f"jacobian_blocks_{i}"], np.int64) for i in range(int(meta["n_interaction_blocks"])))
+        banded = sparse = None
+        if meta["jacobian_kind"] == "banded":
+            banded = (np.asfortranarray(np.array(arrays["jacobian_banded"], float)), int(meta["jacobian_kl"]),
+                      int(meta["jacobian_ku"]), bool(meta["jacobian_symmetric"]))
+        else:
+            sparse = (np.array(arrays["jacobian_indptr"], np.int64), np.array(arrays["jacobian_indices"], np.int64),
+                      np.array(arrays["jacobian_data"], float))
+        jac = JacobianMemory(int(meta["last_iterations"]), float(meta["jacobian_dt"]),
+                             np.array(arrays["jacobian_fixed"], bool), blocks, str(meta["jacobian_kind"]), banded, sparse)
+    return StepMemory(predictor, jac, ordering)
+
+
+def _validity_out(mem: ValidityMemory) -> Section:
+    s, e, ts = mem.worst_strain
+    g, tg = mem.worst_gain
+    return ({"energy": mem.energy, "gravity_start": mem.gravity_start, "gain": mem.gain,
+             "work_handled": mem.work_handled, "scale": mem.scale, "worst_strain": s, "worst_strain_edge": e,
+             "worst_strain_time": ts, "worst_gain": g, "worst_gain_time": tg,
+             **{f"penalty_k_c/{n}": k for n, (k, _) in mem.penalty.items()},
+             **{f"penalty_energy/{n}": en for n, (_, en) in mem.penalty.items()}}, {})
+
+
+def _validity_in(meta: dict, arrays: dict[str, np.ndarray]) -> ValidityMemory:
+    if not meta:  # a checkpoint from before the monitor
+        return ValidityMemory()
+    penalty = {k.split("/", 1)[1]: (float(v), float(meta[f"penalty_energy/{k.split('/', 1)[1]}"]))
+               for k, v in meta.items() if k.startswith("penalty_k_c/")}
+    return ValidityMemory(float(meta["energy"]), float(meta["gravity_start"]), float(meta["gain"]),
+                          float(meta["work_handled"]), float(meta["scale"]),
+                          (float(meta["worst_strain"]), int(meta["worst_strain_edge"]), float(meta["worst_strain_time"])),
+                          (float(meta["worst_gain"]), float(meta["worst_gain_time"])), penalty)

@@ -189,7 +189,7 @@ class RunOutput:
         info["wall_time_s"] = wall_time
         info["simulated_time_s"] = float(self.sim.state.time - t_start)
         info["newton_iterations"] = int(log["iterations"].sum()) if len(log) else 0
-        info["validity"] = self.sim.validity.report()
+        info["validity"] = self.sim.validity.report(self.sim.state.memory.validity)
         info["warnings"] = list(info["validity"]["warnings"])
         self.sim.save_checkpoint(self.dir / "checkpoint.npz")
         if self.config is not None:

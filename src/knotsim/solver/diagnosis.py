@@ -32,9 +32,8 @@ def largest_residual_at(model, interactions, system, q: np.ndarray) -> str:
         unit = "N"
     out = f"; largest residual {abs(r[k]):.3g} {unit} at rod {m.rod_names[rod]!r} {where}"
     for inter in interactions:
-        describe = getattr(inter, "describe_near", None)
-        if node is not None and describe is not None:
-            text = describe(q, node)
+        if node is not None:
+            text = inter.describe_near(q, node)
             if text:
                 out += f", {text}"
     return out

@@ -1,8 +1,16 @@
-"""Simulation state: everything that changes during a run."""
+"""Simulation state: everything that changes during a run.
+
+:class:`State` holds the rods' configuration and, in :attr:`State.memory` (a :class:`RunMemory`),
+what the driver, the stepper, the validity guards, the interactions and the boundary conditions
+remember from one step to the next. :mod:`knotsim.io.checkpoint` writes and reads all of it.
+"""
 
 from __future__ import annotations
 
+import copy
+import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -16,6 +24,111 @@ from knotsim.rods.frames import (
 
 
 @dataclass
+class DriverMemory:
+    """The adaptive step policy of :class:`~knotsim.simulation.Simulation`: the current step ``dt``
+    (s), the count of easy steps since the last change of ``dt``, the steps of full Newton left
+    after a retried step, and the failed step attempts so far."""
+
+    dt: float = math.nan
+    easy: int = 0
+    retry_cooldown: int = 0
+    n_failures: int = 0
+
+
+@dataclass
+class ValidityMemory:
+    """What :class:`~knotsim.solver.validity.ValidityMonitor` accumulates over a run (J, s): the
+    total energy after the last accepted step, the gravity potential after the first, the energy
+    created without a source, the summed ``|work|``, the largest energy handled, the worst strain
+    ``(strain, global edge, time)`` and gain ``(gain / scale, time)``, and per stiffened interaction
+    ``(k_c, energy)`` at the last step."""
+
+    energy: float = math.nan
+    gravity_start: float = math.nan
+    gain: float = 0.0
+    work_handled: float = 0.0
+    scale: float = 0.0
+    worst_strain: tuple[float, int, float] = (0.0, -1, math.nan)
+    worst_gain: tuple[float, float] = (0.0, math.nan)
+    penalty: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class PredictorMemory:
+    """The acceleration predictor's previous step: its end ``time`` (s), the velocity at its start
+    ``v_prev (n_dofs,)`` and its size ``dt`` (s)."""
+
+    time: float
+    v_prev: np.ndarray
+    dt: float
+
+
+@dataclass(frozen=True)
+class JacobianMemory:
+    """The Jacobian a step may start from (``SolverOptions.jacobian_across_steps``): the last
+    accepted step's Newton iterations, the step size and constrained unknowns ``fixed (n_dofs,)``
+    it was assembled for, the interactions' block unknowns then, and the matrix: ``kind`` is
+    ``"banded"`` (``banded``: ``(ab, kl, ku, symmetric)``) or ``"sparse"`` (``sparse``: ``(indptr,
+    indices, data)``). ``token`` names the stepper's assembly it came from (``None`` when restored
+    from a checkpoint); the stepper reuses its factorisation while the token is its own. The arrays
+    may be the stepper's own buffers: :meth:`RunMemory.snapshot` copies them."""
+
+    last_iterations: int
+    dt: float
+    fixed: np.ndarray
+    blocks: tuple[np.ndarray, ...]
+    kind: str
+    banded: tuple | None = None
+    sparse: tuple | None = None
+    token: object | None = None
+
+    def __deepcopy__(self, memo):
+        def arrays(t):
+            return None if t is None else tuple(np.array(a, copy=True) if isinstance(a, np.ndarray) else a for a in t)
+
+        return JacobianMemory(self.last_iterations, self.dt, self.fixed.copy(), tuple(b.copy() for b in self.blocks),
+                              self.kind, arrays(self.banded), arrays(self.sparse), self.token)
+
+
+@dataclass
+class StepMemory:
+    """What :class:`~knotsim.solver.stepper.Stepper` carries from an accepted step to the next:
+    the acceleration predictor's previous step, the Jacobian the next step may start from (``None``
+    during an attempt and after a failed one), and the sparse LU's ordering memory ``(perm, nnz_l,
+    nnz_a)`` (it decides the round-off of later steps; a failed attempt updates it too)."""
+
+    predictor: PredictorMemory | None = None
+    jacobian: JacobianMemory | None = None
+    ordering: tuple[np.ndarray, int, int] | None = None
+
+
+@dataclass
+class RunMemory:
+    """What the parts of a run remember across steps, carried with the :class:`State`.
+
+    ``driver`` (:class:`DriverMemory`), ``step`` (:class:`StepMemory`), ``validity``
+    (:class:`ValidityMemory`), ``interactions`` (by interaction name: the object each interaction's
+    ``initial_memory()`` made, a dataclass of numbers and arrays) and ``bc`` (by group name: what a
+    boundary-condition group captured). :meth:`State.copy` shares the sections (a failed attempt
+    keeps what it changed in them, e.g. a raised contact stiffness, as the holders always did);
+    :meth:`snapshot` copies them."""
+
+    driver: DriverMemory = field(default_factory=DriverMemory)
+    step: StepMemory = field(default_factory=StepMemory)
+    validity: ValidityMemory = field(default_factory=ValidityMemory)
+    interactions: dict[str, Any] = field(default_factory=dict)
+    bc: dict[str, Any] = field(default_factory=dict)
+
+    def copy(self) -> RunMemory:
+        """A new container holding the same sections."""
+        return RunMemory(self.driver, self.step, self.validity, dict(self.interactions), dict(self.bc))
+
+    def snapshot(self) -> RunMemory:
+        """A copy of every section (arrays included)."""
+        return copy.deepcopy(self)
+
+
+@dataclass
 class State:
     """State of all rods at time ``time``.
 
@@ -23,7 +136,8 @@ class State:
     - ``v (n_dofs,)``: their rates (m/s, rad/s);
     - ``d1 (n_edges, 3)``: reference directors; ``tangents (n_edges, 3)``: unit edge tangents at ``q``;
     - ``ref_twist (n_bend,)``: reference twist (rad) of each interior node;
-    - ``time``: s.
+    - ``time``: s;
+    - ``memory``: what the run's parts remember across steps (:class:`RunMemory`).
     """
 
     q: np.ndarray
@@ -33,10 +147,12 @@ class State:
     ref_twist: np.ndarray
     time: float = 0.0
     extra: dict = field(default_factory=dict)
+    memory: RunMemory = field(default_factory=RunMemory)
 
     def copy(self) -> State:
+        """A copy of the arrays; the memory's sections are shared (see :class:`RunMemory`)."""
         return State(self.q.copy(), self.v.copy(), self.d1.copy(), self.tangents.copy(),
-                     self.ref_twist.copy(), self.time, dict(self.extra))
+                     self.ref_twist.copy(), self.time, dict(self.extra), self.memory.copy())
 
     def assign(self, other: State) -> None:
         """Copy ``other`` into this state in place."""
@@ -47,6 +163,7 @@ class State:
         self.ref_twist[:] = other.ref_twist
         self.time = other.time
         self.extra = dict(other.extra)
+        self.memory = other.memory.copy()
 
 
 def initial_state(model) -> State:

@@ -33,18 +33,40 @@ from knotsim.solver.linear import BandedSolver, LinearSolveError, SparseSolver
 from knotsim.solver.newton import newton_solve
 from knotsim.solver.options import LinearSolver, Predictor, SolverOptions  # noqa: F401 (re-exported)
 from knotsim.solver.spin_relaxation import relax_spins
-from knotsim.solver.state import State
+from knotsim.solver.state import JacobianMemory, PredictorMemory, State, StepMemory
 
 _EPS = float(np.finfo(float).eps)
 
 
 class Interaction(Protocol):
-    """What a force term other than elasticity (contact, friction) provides to the stepper."""
+    """What a force term other than elasticity (contact, friction, obstacles, spring grips)
+    provides to the stepper and the driver. Every member is required (trivial ones where an
+    interaction has nothing to say): the stepper and the driver call them without probing."""
 
     name: str
 
+    #: the run memory this interaction uses (a dataclass of numbers and arrays, see
+    #: :class:`~knotsim.solver.state.RunMemory`), or ``None`` when it remembers nothing across steps.
+    #: A :class:`~knotsim.simulation.Simulation` enters it in its state's ``memory.interactions``
+    #: under :attr:`name`; :meth:`begin_step` takes the one ``state_in`` carries (a restored one
+    #: from a checkpoint) and :mod:`knotsim.io.checkpoint` writes it field by field.
+    memory: object | None
+
+    #: the penalty stiffness (N/m) its energy is proportional to (an adaptive one changes the energy
+    #: between steps: see :mod:`knotsim.solver.validity`), or ``None``
+    k_c: float | None
+
+    #: changes whenever :meth:`block_dofs` changes (the stepper re-analyses the matrix pattern)
+    pattern_version: int
+
     def begin_step(self, state_in: State, dt: float) -> None:
-        """Once per step attempt: choose the active set (broad phase), stiffnesses, ..."""
+        """Once per step attempt: choose the active set (broad phase), stiffnesses, ...; take the
+        memory ``state_in`` carries (``state_in.memory.interactions[name]``, by :meth:`use_memory`)
+        when it is another than :attr:`memory`, or enter :attr:`memory` there when it carries none."""
+
+    def use_memory(self, memory) -> None:
+        """Continue from ``memory`` (e.g. restored from a checkpoint): make it :attr:`memory` and
+        rebuild what derives from it."""
 
     def block_dofs(self) -> np.ndarray:
         """Unknowns of each Jacobian block this step, ``(k, m)`` int (may be ``(0, m)``)."""
@@ -66,6 +88,19 @@ class Interaction(Protocol):
     def spin_friction(self):
         """Friction in the edge angles alone at the last evaluation (positions held), for the spin
         relaxation (:class:`~knotsim.solver.spin_relaxation.SpinFrictionTerms`), or ``None``."""
+
+    def supplied_work(self, q_prev: np.ndarray, q: np.ndarray, dt: float) -> float:
+        """Work (J) a moving source of this interaction did on the rods during the accepted step from
+        ``q_prev`` to ``q`` (called before :meth:`stats`; see :mod:`knotsim.solver.validity`)."""
+
+    def untracked_sources(self) -> list[str]:
+        """Sources whose work :meth:`supplied_work` does not count (then no energy check)."""
+
+    def check_start(self, q: np.ndarray) -> None:
+        """Raise :class:`~knotsim.errors.GeometryError` when the start ``q`` is not admissible."""
+
+    def describe_near(self, q: np.ndarray, node: int) -> str:
+        """Text naming what of this interaction acts near global ``node`` (for failure messages), or ""."""
 
 
 class StepFailure(Exception):
@@ -243,9 +278,7 @@ class Stepper:
         self._banded = BandedSolver()
         self._sparse = SparseSolver(blocks=np.append(model.node_dof, model.n_dofs))
         self._pattern_key = None
-        self._bw_key = None
-        #: ``(time, velocity at the start, dt)`` of the last accepted step (acceleration predictor)
-        self._history = None
+        self._bw_key: tuple | None = None
         self._bw = 0
         self._pattern_id = 0
         self._elastic_pattern = None
@@ -254,18 +287,13 @@ class Stepper:
         self._data = np.zeros(0)
         self._constrained = None  # (pattern id, fixed mask, zero slots, one slots)
         #: ``(interaction pattern key, dt, fixed mask)`` the last assembled Jacobian was built for
-        #: (dt None for a static solve; the key None for a Jacobian restored from a checkpoint, whose
-        #: interaction blocks are then in ``_restored_blocks``)
-        self._assembled_for = None
-        self._restored_blocks = None
-        #: Newton iterations of the last accepted step (None after a failure or a static solve)
-        self._last_iterations = None
+        #: (dt None for a static solve)
+        self._assembled_for: tuple | None = None
+        #: assemblies so far (names the Jacobian a :class:`~knotsim.solver.state.JacobianMemory` holds)
+        self._assemblies = 0
         self._diag_cache = None  # (dt, diagonal mass/dt^2 + damping/dt, its largest position entry)
         #: ``(q, frame source)`` of the last elastic evaluation (the frames the elastic object holds)
         self._frames_at = None
-        #: Set by the driver for retries of a failed step: use full Newton (fresh Jacobian every
-        #: iteration), the most robust choice, whatever ``options.jacobian_reuse`` says.
-        self.full_newton = False
         #: Number of matrix factorisations so far.
         self.factorizations = 0
         self.last_solver = ""
@@ -292,13 +320,11 @@ class Stepper:
     def _interaction_pattern(self) -> tuple[list[np.ndarray], tuple, int]:
         """Block unknowns of every interaction, a key that changes with them, and the bandwidth.
 
-        Interactions with a ``pattern_version`` counter (changed whenever their ``block_dofs``
-        change) are keyed by it; others by a hash of their blocks. The bandwidth is computed once
-        per key.
+        Interactions are keyed by their ``pattern_version`` counter (changed whenever their
+        ``block_dofs`` change). The bandwidth is computed once per key.
         """
         inter_dofs = [inter.block_dofs() for inter in self.interactions]
-        key = tuple((id(inter), getattr(inter, "pattern_version", None)) if hasattr(inter, "pattern_version")
-                    else (d.shape, hash(d.tobytes())) for inter, d in zip(self.interactions, inter_dofs, strict=True))
+        key = tuple((id(inter), inter.pattern_version) for inter in self.interactions)
         if key != self._bw_key:
             self._bw = max([self._elastic_bw] + [asm.bandwidth([d]) for d in inter_dofs])
             self._bw_key = key
@@ -309,7 +335,7 @@ class Stepper:
         el = self.elastic
         inter_dofs, key, bw = self._interaction_pattern()
         self._assembled_for = (key, dt, fixed)
-        self._restored_blocks = None
+        self._assemblies += 1
         n = m.n_dofs
         mode = self.options.linear_solver
         if mode == "banded" or (mode == "auto" and bw <= 24):
@@ -397,25 +423,59 @@ class Stepper:
         np.add.at(out, (np.concatenate(rows), np.concatenate(cols)), np.concatenate(vals))
         return out
 
-    def _jacobian_carries_over(self, dt: float, fixed: np.ndarray) -> bool:
+    def _jacobian_carries_over(self, jac: JacobianMemory | None, dt: float, fixed: np.ndarray) -> bool:
         """Whether a step over ``dt`` (s) with the constrained unknowns ``fixed`` ``(n_dofs,)``
-        starts from the last Jacobian (see ``SolverOptions.jacobian_across_steps``): the last step
-        converged in one iteration, and the Jacobian (factorised, or restored from a checkpoint) was
-        assembled for this step size, these constraints and the current interaction blocks."""
-        a = self._assembled_for
-        if (a is None or self._last_iterations != 1 or a[1] != dt or self._active is None and self._restored_blocks is None
-                or self._needs_factor and self._restored_blocks is None or not same_values(a[2], fixed)):
+        starts from the Jacobian ``jac`` of the step memory (see
+        ``SolverOptions.jacobian_across_steps``): the last step converged in one iteration, and the
+        Jacobian (this stepper's factorised one, or one restored from a checkpoint) was assembled for
+        this step size, these constraints and the current interaction blocks."""
+        if jac is None or jac.last_iterations != 1 or jac.dt != dt or not same_values(jac.fixed, fixed):
             return False
         inter_dofs, key, _ = self._interaction_pattern()
-        if a[0] is None:  # restored: compare the blocks themselves (the interactions' keys are new)
-            if len(inter_dofs) != len(self._restored_blocks) or not all(
+        if jac.token is None:  # restored: compare the blocks themselves (the interactions' keys are new)
+            if len(inter_dofs) != len(jac.blocks) or not all(
                     d.shape == b.shape and same_values(d.ravel(), b.ravel())
-                    for d, b in zip(inter_dofs, self._restored_blocks, strict=True)):
+                    for d, b in zip(inter_dofs, jac.blocks, strict=True)):
                 return False
-            self._assembled_for = (key, a[1], a[2])
-            self._restored_blocks = None
+            self._assembled_for = (key, jac.dt, jac.fixed)
             return True
-        return key == a[0]
+        a = self._assembled_for
+        return (jac.token == self._assemblies and self._active is not None and not self._needs_factor
+                and a is not None and key == a[0])
+
+    def _use_restored_jacobian(self, jac: JacobianMemory) -> None:
+        """Make the Jacobian of a restored step memory the last assembled one (factorised when used)."""
+        if jac.banded is not None:
+            ab, kl, ku, symmetric = jac.banded
+            self._system = ("banded", ab, kl, ku, symmetric)
+        elif jac.sparse is not None:
+            # the sparse Jacobian brings its own pattern; the next assembly builds its own again
+            indptr, indices, data = jac.sparse
+            self._indptr, self._indices, self._data = np.array(indptr), np.array(indices), np.array(data)
+            self._system = ("sparse", self._data)
+            self._pattern_key = None
+            self._pattern_id += 1
+        self._assembled_for = None
+        self._needs_factor = True
+
+    def _jacobian_memory(self, iterations: int) -> JacobianMemory | None:
+        """The Jacobian a next step may start from, after an accepted step of ``iterations`` Newton
+        iterations: the last assembled one when it is factorised and was assembled for the
+        current interaction blocks (references to the stepper's buffers, valid until it assembles
+        again), else ``None``."""
+        a = self._assembled_for
+        if (iterations != 1 or a is None or a[1] is None or not self.options.jacobian_across_steps
+                or self._needs_factor):
+            return None
+        inter_dofs, key, _ = self._interaction_pattern()
+        if key != a[0]:
+            return None  # the blocks changed since: the next step assembles afresh
+        if self._system[0] == "banded":
+            _, ab, kl, ku, symmetric = self._system
+            return JacobianMemory(iterations, a[1], a[2], tuple(np.asarray(d) for d in inter_dofs), "banded",
+                                  banded=(ab, kl, ku, symmetric), token=self._assemblies)
+        return JacobianMemory(iterations, a[1], a[2], tuple(np.asarray(d) for d in inter_dofs), "sparse",
+                              sparse=(self._indptr, self._indices, self._system[1]), token=self._assemblies)
 
     def _solve(self, rhs: np.ndarray) -> np.ndarray:
         """Solve with the last assembled Jacobian, factorising it first if it is new."""
@@ -447,75 +507,6 @@ class Stepper:
         state.tangents = self.elastic.tangents.copy()
         state.ref_twist = self.elastic.ref_twist.copy()
 
-    # -- checkpoints ----------------------------------------------------------------------
-    def save_state(self) -> tuple[dict, dict]:
-        """The stepper's memory between steps: the acceleration predictor's previous step, the
-        sparse LU's ordering memory and, when the next step may start from it
-        (``SolverOptions.jacobian_across_steps``), the last assembled Jacobian with what it was
-        assembled for. ``(scalars, arrays)`` for :mod:`knotsim.io.checkpoint`."""
-        meta, arrays = {"history": False}, {}
-        if self._history is not None:
-            t, v, dt = self._history
-            meta, arrays = {"history": True, "time": float(t), "dt": float(dt)}, {"v_prev": v}
-        order = self._sparse.ordering_memory
-        if order is not None:  # the sparse LU's ordering memory decides the round-off of later steps
-            meta.update(ordering_nnz_l=int(order[1]), ordering_nnz_a=int(order[2]))
-            arrays["ordering_perm"] = order[0]
-        a = self._assembled_for
-        if (self._last_iterations == 1 and a is not None and a[1] is not None
-                and self.options.jacobian_across_steps and (not self._needs_factor or a[0] is None)):
-            if a[0] is None:  # restored and not used yet: its blocks are those it was restored with
-                blocks = self._restored_blocks
-            else:
-                blocks = [np.asarray(d) for d in self._interaction_pattern()[0]]
-                if self._interaction_pattern()[1] != a[0]:
-                    blocks = None  # the blocks changed since: the next step assembles afresh
-            if blocks is not None:
-                meta.update(last_iterations=int(self._last_iterations), jacobian_dt=float(a[1]),
-                            jacobian_kind=self._system[0], n_interaction_blocks=len(blocks))
-                arrays["jacobian_fixed"] = np.asarray(a[2], bool)
-                for i, b in enumerate(blocks):
-                    arrays[f"jacobian_blocks_{i}"] = np.asarray(b, np.int64)
-                if self._system[0] == "banded":
-                    _, ab, kl, ku, symmetric = self._system
-                    meta.update(jacobian_kl=int(kl), jacobian_ku=int(ku), jacobian_symmetric=bool(symmetric))
-                    arrays["jacobian_banded"] = np.asarray(ab)
-                else:
-                    arrays.update(jacobian_indptr=self._indptr, jacobian_indices=self._indices,
-                                  jacobian_data=self._system[1])
-        return meta, arrays
-
-    def load_state(self, meta: dict, arrays: dict) -> None:
-        """Restore what :meth:`save_state` returned."""
-        if meta.get("history"):
-            self._history = (float(meta["time"]), np.array(arrays["v_prev"], float), float(meta["dt"]))
-        else:
-            self._history = None
-        if "ordering_nnz_l" in meta:
-            self._sparse.restore_ordering_memory(arrays["ordering_perm"], meta["ordering_nnz_l"],
-                                                 meta["ordering_nnz_a"])
-        self._last_iterations = None
-        self._assembled_for = self._restored_blocks = None
-        if "jacobian_kind" not in meta:
-            return
-        self._last_iterations = int(meta["last_iterations"])
-        self._assembled_for = (None, float(meta["jacobian_dt"]), np.array(arrays["jacobian_fixed"], bool))
-        self._restored_blocks = [np.array(arrays[f"jacobian_blocks_{i}"], np.int64)
-                                 for i in range(int(meta["n_interaction_blocks"]))]
-        if meta["jacobian_kind"] == "banded":
-            ab = np.asfortranarray(np.array(arrays["jacobian_banded"], float))
-            self._system = ("banded", ab, int(meta["jacobian_kl"]), int(meta["jacobian_ku"]),
-                            bool(meta["jacobian_symmetric"]))
-        else:
-            # the sparse Jacobian brings its own pattern; the next assembly builds its own again
-            self._indptr = np.array(arrays["jacobian_indptr"], np.int64)
-            self._indices = np.array(arrays["jacobian_indices"], np.int64)
-            self._data = np.array(arrays["jacobian_data"], float)
-            self._system = ("sparse", self._data)
-            self._pattern_key = None
-            self._pattern_id += 1
-        self._needs_factor = True
-
     # -- stepping -------------------------------------------------------------------------
     def _predict(self, state_in: State, dt: float) -> np.ndarray:
         """Initial Newton guess for the step from ``state_in`` over ``dt`` (see ``predictor``)."""
@@ -523,17 +514,41 @@ class Stepper:
         if mode == "previous":
             return state_in.q.copy()
         v = state_in.v
-        h = self._history
-        if mode == "acceleration" and h is not None and h[0] == state_in.time and h[1].shape == v.shape:
+        h = state_in.memory.step.predictor
+        if mode == "acceleration" and h is not None and h.time == state_in.time and h.v_prev.shape == v.shape:
             # constant acceleration: v_{n+1} ~ v_n + (v_n - v_{n-1}) dt / dt_prev
             out = np.empty_like(state_in.q)
-            predict_positions(state_in.q, v, h[1], dt / h[2], dt, out)
+            predict_positions(state_in.q, v, h.v_prev, dt / h.dt, dt, out)
             return out
         return state_in.q + dt * v
 
-    def step(self, state_in: State, state_out: State, control, dt: float) -> StepResult:
+    def step(self, state_in: State, state_out: State, control, dt: float, *, full_newton: bool = False) -> StepResult:
         """Advance ``state_in`` by ``dt`` (s) into ``state_out`` (may be the same object only if
-        the caller keeps a copy for retries). Raises :class:`StepFailure` if Newton fails."""
+        the caller keeps a copy for retries). Raises :class:`StepFailure` if Newton fails.
+
+        ``full_newton``: a fresh Jacobian every iteration, the most robust choice, whatever
+        ``options.jacobian_reuse`` says (the driver's choice for retries of a failed step). The
+        stepper's memory across steps comes with ``state_in.memory.step`` and goes out with
+        ``state_out.memory.step`` (:class:`~knotsim.solver.state.StepMemory`; the driver's states
+        share one, so that a failed attempt's LU ordering memory stays for the retry)."""
+        mem = state_in.memory.step
+        order = self._sparse.ordering_memory
+        if mem.ordering is not None and mem.ordering is not order:  # restored: analyse as the saved run did
+            self._sparse.restore_ordering_memory(*mem.ordering)
+        jac = mem.jacobian
+        if jac is not None and jac.token is None:
+            self._use_restored_jacobian(jac)
+        out_mem = state_out.memory.step
+        if out_mem is not mem:
+            state_out.memory.step = out_mem = StepMemory(mem.predictor, None, mem.ordering)
+        out_mem.jacobian = None  # until this step is accepted
+        try:
+            return self._step(state_in, state_out, control, dt, full_newton, jac, out_mem)
+        finally:
+            out_mem.ordering = self._sparse.ordering_memory
+
+    def _step(self, state_in: State, state_out: State, control, dt: float, full_newton: bool,
+              jac: JacobianMemory | None, out_mem: StepMemory) -> StepResult:
         m = self.model
         t_new = state_in.time + dt
         fixed_dofs, fixed_vals, f_bc = control.evaluate(t_new, state_in.q, state_in.time) if control else (
@@ -545,9 +560,8 @@ class Stepper:
         q0 = self._predict(state_in, dt)
         q0[fixed_dofs] = fixed_vals
         system = _StepSystem(self, state_in, dt, fixed, self.gravity_force + f_bc, static=False)
-        reuse = self.options.jacobian_reuse and not self.full_newton
-        carry = reuse and self.options.jacobian_across_steps and self._jacobian_carries_over(dt, fixed)
-        self._last_iterations = None  # until this step is accepted
+        reuse = self.options.jacobian_reuse and not full_newton
+        carry = reuse and self.options.jacobian_across_steps and self._jacobian_carries_over(jac, dt, fixed)
         try:
             res = newton_solve(system, q0, self.options.max_iterations, self.options.line_search,
                                reuse_jacobian=reuse, jacobian_at_start=not carry)
@@ -565,7 +579,6 @@ class Stepper:
             if reason:
                 raise StepFailure(reason)
         q = res.q
-        self._last_iterations = res.iterations
         v_new = (q - state_in.q) / dt
         energies = dict(system.energies)
         energies["kinetic"] = 0.5 * float(np.dot(m.mass * v_new, v_new))
@@ -574,14 +587,13 @@ class Stepper:
         v_in = state_in.v.copy()
         self.store_configuration(state_out, q, system.source)
         state_out.v = v_new
-        self._history = (t_new, v_in, dt)
+        out_mem.predictor = PredictorMemory(t_new, v_in, dt)
+        out_mem.jacobian = self._jacobian_memory(res.iterations)
         state_out.time = t_new
         stats = {}
         work = constrained_work(system.last_full_residual, fixed, f_bc, q, state_in.q)
         for inter in self.interactions:  # (before stats: a free-spinning obstacle advances its spin there)
-            supplied = getattr(inter, "supplied_work", None)
-            if supplied is not None:
-                work += supplied(state_in.q, q, dt)
+            work += inter.supplied_work(state_in.q, q, dt)
         for inter in self.interactions:
             stats.update(inter.stats())
         return StepResult(t_new, dt, res.iterations, res.residual, res.line_search_cuts, energies, reactions,

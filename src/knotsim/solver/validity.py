@@ -33,6 +33,7 @@ import numpy as np
 
 from knotsim.errors import ValidityError
 from knotsim.solver._validity_kernels import first_non_finite, largest_axial_strain
+from knotsim.solver.state import ValidityMemory
 
 __all__ = ["WARN_FRACTION", "ValidityMonitor"]
 
@@ -48,28 +49,33 @@ class ValidityMonitor:
     stepper's force tolerance, which sets the smallest energy scale the gain is measured against,
     ``1e3 force_tol`` times the total rope length (a run at rest handles no energy; its round-off
     must not count as energy created); ``interactions``: the stepper's interactions (their
-    ``untracked_sources()`` name sources whose work is not counted: then no energy check)."""
+    ``untracked_sources()`` name sources whose work is not counted: then no energy check).
+
+    What the monitor accumulates is run memory (:class:`~knotsim.solver.state.ValidityMemory`),
+    carried by the state: :meth:`check` uses that of the state it checks (``memory`` is the last
+    one used, read by :meth:`report`)."""
 
     def __init__(self, model, max_axial_strain: float, max_energy_gain: float, force_tol: float,
                  interactions=()):
         self.model = model
         #: interactions whose penalty energy is ``k_c`` times a function of the positions (an
         #: adaptive ``k_c`` changes their energy between steps: a source, counted)
-        self.stiffened = [i for i in interactions if hasattr(i, "k_c")]
-        self.penalty = {i.name: (math.nan, 0.0) for i in self.stiffened}  # name -> (k_c, energy) at the last step
+        self.stiffened = [i for i in interactions if i.k_c is not None]
         self.max_axial_strain = float(max_axial_strain)
         self.max_energy_gain = float(max_energy_gain)
         self.energy_floor = 1e3 * float(force_tol) * float(np.sum(model.rest_length))
-        self.untracked_sources = [name for inter in interactions
-                                  for name in getattr(inter, "untracked_sources", list)()]
-        # run state (saved in checkpoints: see save_state)
-        self.energy = math.nan          # J, total energy after the last accepted step
-        self.gravity_start = math.nan   # J, gravity potential after the first accepted step
-        self.gain = 0.0                 # J, energy created without a source since then
-        self.work_handled = 0.0         # J, sum of |W| over the accepted steps
-        self.scale = 0.0                # J, the largest energy handled so far (see module docstring)
-        self.worst_strain = (0.0, -1, math.nan)      # (strain, global edge, time s)
-        self.worst_gain = (0.0, math.nan)            # (gain / scale, time s)
+        self.untracked_sources = [name for inter in interactions for name in inter.untracked_sources()]
+        #: the run memory of the last check (a new one until then)
+        self.memory = ValidityMemory()
+
+    # the accumulated numbers (J, see ValidityMemory), read from the memory in use
+    @property
+    def gain(self) -> float:
+        return self.memory.gain
+
+    @property
+    def scale(self) -> float:
+        return self.memory.scale
 
     # ------------------------------------------------------------------ the check
     def check(self, state_out, res) -> None:
@@ -77,6 +83,7 @@ class ValidityMonitor:
         :class:`~knotsim.solver.stepper.StepResult` ``res``) left the model's validity; else record it
         (call once per accepted step, after it converged and before it is accepted)."""
         m = self.model
+        mem = self.memory = state_out.memory.validity
         t = float(res.time)
         for name, arr in (("position or edge angle", state_out.q), ("velocity", state_out.v)):
             i = int(first_non_finite(arr))
@@ -86,17 +93,17 @@ class ValidityMonitor:
                                     value=float(arr[i]))
         strain, edge = largest_axial_strain(state_out.q, m.edge_dofs, m.rest_length)
         edge = int(edge)
-        if edge >= 0 and strain > self.worst_strain[0]:
-            self.worst_strain = (float(strain), edge, t)
+        if edge >= 0 and strain > mem.worst_strain[0]:
+            mem.worst_strain = (float(strain), edge, t)
         if edge >= 0 and strain > self.max_axial_strain:
             raise ValidityError(
                 f"axial strain {strain:.4g} of {self._edge_name(edge)} at t={t:.6g} s exceeds max_axial_strain="
                 f"{self.max_axial_strain:g}: the rope is stretched beyond the model (a load in the wrong units? "
                 "a grip pulling against a clamp?); raise solver.max_axial_strain only if such strains are meant",
                 quantity="axial_strain", value=float(strain))
-        self._check_energy(res, t)
+        self._check_energy(mem, res, t)
 
-    def _check_energy(self, res, t: float) -> None:
+    def _check_energy(self, mem: ValidityMemory, res, t: float) -> None:
         e = res.energies
         energy = e.get("elastic", 0.0) + e.get("kinetic", 0.0) + e.get("gravity", 0.0)
         stored = abs(e.get("elastic", 0.0)) + abs(e.get("kinetic", 0.0))
@@ -110,30 +117,30 @@ class ValidityMonitor:
         # (k_new / k_old - 1) E_old before the rods move: work of a source, not of the motion
         restiffened = 0.0
         for inter in self.stiffened:
-            k_old, e_old = self.penalty[inter.name]
+            k_old, e_old = mem.penalty.get(inter.name, (math.nan, 0.0))
             if k_old > 0.0:
                 restiffened += (float(inter.k_c) / k_old - 1.0) * e_old
-            self.penalty[inter.name] = (float(inter.k_c), float(res.interaction_energies.get(inter.name, 0.0)))
-        if math.isnan(self.energy):  # the first step: the reference
-            self.energy = energy
-            self.gravity_start = e.get("gravity", 0.0)
-            self.scale = max(stored, self.energy_floor)
+            mem.penalty[inter.name] = (float(inter.k_c), float(res.interaction_energies.get(inter.name, 0.0)))
+        if math.isnan(mem.energy):  # the first step: the reference
+            mem.energy = energy
+            mem.gravity_start = e.get("gravity", 0.0)
+            mem.scale = max(stored, self.energy_floor)
             return
         work = res.external_work + restiffened
-        self.gain += energy - self.energy - work
-        self.work_handled += abs(work)
-        stored += abs(e.get("gravity", 0.0) - self.gravity_start)
-        self.scale = max(self.scale, stored, self.work_handled)
-        self.energy = energy
+        mem.gain += energy - mem.energy - work
+        mem.work_handled += abs(work)
+        stored += abs(e.get("gravity", 0.0) - mem.gravity_start)
+        mem.scale = max(mem.scale, stored, mem.work_handled)
+        mem.energy = energy
         if self.untracked_sources:
             return
-        ratio = self.gain / self.scale
-        if ratio > self.worst_gain[0]:
-            self.worst_gain = (ratio, t)
+        ratio = mem.gain / mem.scale
+        if ratio > mem.worst_gain[0]:
+            mem.worst_gain = (ratio, t)
         if ratio > self.max_energy_gain:
             raise ValidityError(
-                f"energy grew without a source: {self.gain:.4g} J created by t={t:.6g} s, {ratio:.3g} x the energy "
-                f"the run handled ({self.scale:.4g} J), beyond max_energy_gain={self.max_energy_gain:g}; the "
+                f"energy grew without a source: {mem.gain:.4g} J created by t={t:.6g} s, {ratio:.3g} x the energy "
+                f"the run handled ({mem.scale:.4g} J), beyond max_energy_gain={self.max_energy_gain:g}; the "
                 "time integration is unstable here (try a smaller dt, softer contact or a finer rope)",
                 quantity="energy_gain", value=ratio)
 
@@ -152,10 +159,12 @@ class ValidityMonitor:
         return f"node {node - int(m.rod_node_start[rod])} of rod {m.rod_names[rod]!r}"
 
     # ------------------------------------------------------------------ records
-    def report(self) -> dict:
-        """What ``run.json`` records under ``validity``: limits, extremes and ``warnings``."""
-        strain, edge, ts = self.worst_strain
-        gain, tg = self.worst_gain
+    def report(self, memory: ValidityMemory | None = None) -> dict:
+        """What ``run.json`` records under ``validity``: limits, extremes and ``warnings`` (of the run
+        memory ``memory``, default: that of the last check)."""
+        mem = memory if memory is not None else self.memory
+        strain, edge, ts = mem.worst_strain
+        gain, tg = mem.worst_gain
         out = {"max_axial_strain": self.max_axial_strain, "max_energy_gain": self.max_energy_gain,
                "largest_axial_strain": strain, "largest_axial_strain_at": self._edge_name(edge) if edge >= 0 else None,
                "largest_axial_strain_time": None if math.isnan(ts) else ts,
@@ -170,28 +179,3 @@ class ValidityMonitor:
             out["warnings"].append(f"energy created without a source reached {gain:.3g} x the energy handled at "
                                    f"t={tg:.6g} s, more than half of max_energy_gain={self.max_energy_gain:g}")
         return out
-
-    def save_state(self) -> tuple[dict, dict]:
-        """The monitor's memory (``(scalars, arrays)`` for :mod:`knotsim.io.checkpoint`)."""
-        s, e, ts = self.worst_strain
-        g, tg = self.worst_gain
-        return ({"energy": self.energy, "gravity_start": self.gravity_start, "gain": self.gain,
-                 "work_handled": self.work_handled, "scale": self.scale, "worst_strain": s, "worst_strain_edge": e,
-                 "worst_strain_time": ts, "worst_gain": g, "worst_gain_time": tg,
-                 **{f"penalty_k_c/{n}": k for n, (k, _) in self.penalty.items()},
-                 **{f"penalty_energy/{n}": en for n, (_, en) in self.penalty.items()}}, {})
-
-    def load_state(self, meta: dict, arrays: dict) -> None:
-        """Restore what :meth:`save_state` returned (nothing: a checkpoint from before the monitor)."""
-        if not meta:
-            return
-        self.energy = float(meta["energy"])
-        self.gravity_start = float(meta["gravity_start"])
-        self.gain = float(meta["gain"])
-        self.work_handled = float(meta["work_handled"])
-        self.scale = float(meta["scale"])
-        self.worst_strain = (float(meta["worst_strain"]), int(meta["worst_strain_edge"]), float(meta["worst_strain_time"]))
-        self.worst_gain = (float(meta["worst_gain"]), float(meta["worst_gain_time"]))
-        for n in self.penalty:
-            if f"penalty_k_c/{n}" in meta:
-                self.penalty[n] = (float(meta[f"penalty_k_c/{n}"]), float(meta[f"penalty_energy/{n}"]))
