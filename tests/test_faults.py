@@ -165,8 +165,10 @@ def test_nan_positions_are_refused_at_export(tmp_path):
     from knotsim.io.vtk import export_vtk
 
     with TrajectoryWriter(tmp_path / "trajectory.h5", [0, 3], [0, 2], [False], [1e-3]) as w:
-        w.append(0.0, np.zeros((3, 3)), np.zeros(2))
         x = np.zeros((3, 3))
+        x[:, 0] = [0.0, 1e-3, 2e-3]  # a straight rod (coincident nodes would make the fields 0/0)
+        w.append(0.0, x, np.zeros(2))
+        x = x.copy()
         x[1, 0] = np.nan
         w.append(0.1, x, np.zeros(2))
     with pytest.raises(ConfigError, match=r"frame 1 \(t = 0.1 s\) has non-finite positions \(first at node 1\)"):
