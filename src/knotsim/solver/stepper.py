@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
-import scipy.sparse as sp
 
 from knotsim.energies.elastic import ElasticEnergy, FrameSource
 from knotsim.solver import assembly as asm
@@ -405,12 +404,19 @@ class Stepper:
         """The last assembled Jacobian's block of the unknowns ``idx`` (sorted, ``(m,)``) as a dense
         ``(m, m)`` array (the units of those unknowns' residuals per unit unknown)."""
         n = self.model.n_dofs
-        if self._system[0] == "sparse":
-            full = sp.csc_matrix((self._system[1], self._indices, self._indptr), shape=(n, n))
-            return full[idx][:, idx].toarray()
-        _, ab, kl, ku, _ = self._system
         loc = np.full(n, -1, dtype=np.int64)
         loc[idx] = np.arange(idx.size)
+        if self._system[0] == "sparse":
+            data, indptr, indices = self._system[1], self._indptr, self._indices
+            starts, counts = indptr[idx], indptr[idx + 1] - indptr[idx]
+            col = np.repeat(np.arange(idx.size), counts)  # local column of every stored entry
+            slot = np.repeat(starts - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
+            row = loc[indices[slot]]
+            keep = row >= 0
+            out = np.zeros((idx.size, idx.size))
+            np.add.at(out, (row[keep], col[keep]), data[slot[keep]])
+            return out
+        _, ab, kl, ku, _ = self._system
         rows, cols, vals = [], [], []
         for d in range(-ku, kl + 1):  # entry (i, j) = (j + d, j) sits at ab[kl + ku + d, j]
             i = idx + d
