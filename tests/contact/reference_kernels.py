@@ -295,6 +295,23 @@ def ref_surface_velocity_map(p, ha, hb, beta_a, beta_b, n):
     return B_tr, B_rot
 
 
+def ref_stick_friction(p, p_prev, theta, theta_prev, dt, xi0, mu_limit, kappa, ha, hb, fc, beta_a, beta_b):
+    """The elastic-stick law plainly: the spring ``ξ = ξ0 + u dt`` (``u`` the surface slip of
+    :func:`ref_surface_friction`), ``f = −κ F_n ξ`` while ``κ|ξ| <= μ_L``, ``−μ_L F_n ξ/|ξ|`` beyond;
+    ``Q = Bᵀ f`` (14,)."""
+    n, fn = ref_surface_normal(fc)
+    if n is None:
+        return np.zeros(14)
+    zdot = np.concatenate([np.asarray(p, float) - np.asarray(p_prev, float),
+                           np.asarray(theta, float) - np.asarray(theta_prev, float)]) / dt
+    B_tr, B_rot = ref_surface_velocity_map(p, ha, hb, beta_a, beta_b, n)
+    B = B_tr + B_rot
+    xi = np.asarray(xi0, float) + dt * ((np.eye(3) - np.outer(n, n)) @ (B @ zdot))
+    r = np.linalg.norm(xi)
+    f = -kappa * fn * xi if kappa * r <= mu_limit else -mu_limit * fn * xi / r
+    return B.T @ f
+
+
 def ref_surface_friction(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, beta_a, beta_b):
     """Generalised friction force ``Q = Bᵀ f`` (14,) on ``(x0, x1, x2, x3, θ_a, θ_b)``, written
     plainly from the kinematics (``B`` of :func:`ref_surface_velocity_map` as an explicit matrix):

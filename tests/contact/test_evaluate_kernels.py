@@ -4,7 +4,7 @@ over :func:`knotsim.contact.potential.contact_pair_energy` and :func:`friction_p
 import numpy as np
 import pytest
 
-from knotsim.contact.assembly import contact_evaluate_exact, contact_evaluate_regularized
+from knotsim.contact.assembly import SURFACE_COLUMNS, contact_evaluate_exact, contact_evaluate_regularized
 from knotsim.contact.distance import edge_edge_beta_gradients
 from knotsim.contact.friction import friction_pair
 from knotsim.contact.potential import contact_pair_energy
@@ -67,7 +67,8 @@ def test_kernel_matches_per_pair_reference(regularized):
     blocks = np.full((n_pairs, 12, 12), np.nan)
     e, missing = kernel(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, True, blocks, slot,
                         np.empty(n_pairs), np.empty((n_pairs, 12)), np.empty((n_pairs, 12)), pair_eta,
-                        np.zeros((n_pairs, 2), np.int64), np.zeros((n_pairs, 2)), np.zeros((n_pairs, 14)))
+                        np.zeros((n_pairs, 2), np.int64), np.zeros((n_pairs, 2)), np.zeros((n_pairs, SURFACE_COLUMNS)),
+                        np.zeros((0, 3)), np.zeros(0), 0.0)
     r_ref, b_ref, e_ref = _reference(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, pair_eta)
     assert e_ref > 0.0  # some pairs are in range: the comparison is not vacuous
     assert e == pytest.approx(e_ref, rel=1e-12)

@@ -185,21 +185,26 @@ def test_interaction_blocks_match_fd(kind):
     assert np.max(np.abs(J[np.ix_(model.theta_mask, model.theta_mask)])) > 0.0
 
 
-def stencil_case(kind, geom, wA, wB, z, zp, vel=(0, 0, 0), omega=(0, 0, 0), center=(0, 0, 0), mu=0.4, nu=1e-3):
+def stencil_case(kind, geom, wA, wB, z, zp, vel=(0, 0, 0), omega=(0, 0, 0), center=(0, 0, 0), mu=0.4, nu=1e-3,
+                 stick=None):
+    """Force, Jacobian and its central differences of one node; ``stick = (ξ0 (3,), μ_L, κ)``: the
+    elastic-stick law (else the smooth law)."""
+    law = (np.zeros(3), 0.0, 0.0) if stick is None else (np.asarray(stick[0], float), stick[1], stick[2])
+    xo = np.zeros(3)
     force = np.zeros(11)
     jac = np.zeros((11, 11))
     gr, Hm = np.zeros(3), np.zeros((3, 3))
     args = (kind, z, zp, wA, wB, 0.01, geom, H_ROD, 2e-3, 50.0, mu, nu, np.array(vel, float),
             np.array(omega, float), np.array(center, float))
-    node_surface_contact(*args, force, jac, True, gr, Hm)
+    node_surface_contact(*args, force, jac, True, gr, Hm, *law, xo)
     out = (force.copy(), jac.copy())
     Jf = np.zeros((11, 11))
     for mcol in range(11):
         dz = np.zeros(11)
         dz[mcol] = FD_NODE
         fp, fm = np.zeros(11), np.zeros(11)
-        node_surface_contact(kind, z + dz, *args[2:], fp, jac, False, gr, Hm)
-        node_surface_contact(kind, z - dz, *args[2:], fm, jac, False, gr, Hm)
+        node_surface_contact(kind, z + dz, *args[2:], fp, jac, False, gr, Hm, *law, xo)
+        node_surface_contact(kind, z - dz, *args[2:], fm, jac, False, gr, Hm, *law, xo)
         Jf[:, mcol] = (fp - fm) / (2 * FD_NODE)
     return out[0], out[1], Jf
 
@@ -253,6 +258,38 @@ def test_node_jacobian_matches_fd(case):
         assert np.all(J[:4] == 0) and np.all(J[:, :4] == 0) and np.all(F[:4] == 0)
     if wB == 0.0:
         assert np.all(J[7:] == 0) and np.all(J[:, 7:] == 0) and np.all(F[7:] == 0)
+
+
+@pytest.mark.parametrize("regime", ["stick", "slide"])
+@pytest.mark.parametrize("case", ["interior", "first", "zero_slip", "capsule"])
+def test_node_jacobian_matches_fd_stick_law(case, regime):
+    """The elastic-stick law (docs/physics.md §3.6) at an obstacle: exact Jacobian while the spring
+    holds (κ|ξ| < μ_L) and while it slides (beyond), also with no motion over the step (the
+    start spring alone pulls)."""
+    rng = np.random.default_rng(8)
+    wA, wB = (0.0, 1.0) if case == "first" else (0.5, 0.5)
+    z = stencil(rng)
+    zp = z + rng.normal(0, 2e-5, 11)
+    zp[[3, 7]] = z[[3, 7]] + rng.normal(0, 0.02, 2)
+    if case == "zero_slip":
+        zp = z.copy()
+    kind, geom = PLANE, PLANE_GEOM
+    if case == "capsule":
+        kind, geom = CAPSULE, np.array([-0.05, 0.0, -0.02, 0.05, 0.01, -0.02, 0.02 - 2e-4])
+    xi0 = np.array([3e-5, -2e-5, 0.0])
+    # the spring at the iterate with the law switched on at a tiny κ (always elastic): its length
+    xo = np.zeros(3)
+    args = (kind, z, zp, wA, wB, 0.01, geom, H_ROD, 2e-3, 50.0, 0.4, 1e-3, np.zeros(3), np.zeros(3), np.zeros(3))
+    node_surface_contact(*args, np.zeros(11), np.zeros((11, 11)), False, np.zeros(3), np.zeros((3, 3)), xi0, 0.4,
+                         1e-12, xo)
+    r = np.linalg.norm(xo)
+    assert r > 0.0
+    kappa = (0.3 if regime == "stick" else 3.0) * 0.4 / r
+    F, J, Jf = stencil_case(kind, geom, wA, wB, z, zp, stick=(xi0, 0.4, kappa))
+    fn = np.linalg.norm(F[4:7] - (F[4:7] @ np.array([0, 0, 1.0])) * np.array([0, 0, 1.0])) if kind == PLANE else None
+    assert np.max(np.abs(Jf - J)) <= 1e-5 * np.max(np.abs(J)), np.max(np.abs(Jf - J)) / np.max(np.abs(J))
+    if fn is not None:  # the tangential force: κ F_n |ξ| sticking, μ_L F_n sliding (lever terms aside)
+        assert fn > 0.0
 
 
 def test_stencils_layout():

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from knotsim.contact.surface_friction import SpinFriction, spin_friction_terms
+from knotsim.contact.surface_friction import RECORD_SIZE, SpinFriction, spin_friction_terms
 
 from .test_surface_friction import DT, NU, evaluate, random_pair, stable
 
@@ -16,18 +16,35 @@ K = 7.5 / NU  # K2/2
 
 
 def ref_terms(dtheta, loc, record, dt, nu):
-    """Plain numpy: D = Σ μF_n dt ln cosh(k|u|)/k with u = u0 + (c_a Δθ_a + c_b Δθ_b)/dt."""
+    """Plain numpy: D = Σ μF_n dt ln cosh(k|u|)/k with u = u0 + (c_a Δθ_a + c_b Δθ_b)/dt, or for a
+    stick-law record (κ > 0) D = F_n H(|u dt|), H the Huber function of slope κ and limit μ_L."""
     k = 7.5 / nu
     total = 0.0
     grad = np.zeros(dtheta.shape[0])
     hess = np.zeros((record.shape[0], 2, 2))
     for p, rec in enumerate(record):
-        u0, ca, cb, mufn = rec[0:3], rec[3:6], rec[6:9], rec[9]
+        u0, ca, cb, fn, coef, kappa = rec[0:3], rec[3:6], rec[6:9], rec[9], rec[10], rec[11]
+        mufn = fn * coef
         if mufn <= 0:
             continue
         th = [dtheta[i] if i >= 0 else 0.0 for i in loc[p]]
         c = [ca, cb]
         u = u0 + (ca * th[0] + cb * th[1]) / dt
+        if kappa > 0:  # ξ = u dt; H = κ r²/2 within μ_L/κ, μ_L r − μ_L²/(2κ) beyond
+            xi = u * dt
+            r = np.linalg.norm(xi)
+            lim = coef / kappa
+            total += fn * (0.5 * kappa * r * r if r <= lim else coef * r - 0.5 * coef * coef / kappa)
+            xh = xi / r if r > 0 else np.zeros(3)
+            m = kappa * np.eye(3) if r <= lim else coef / r * (np.eye(3) - np.outer(xh, xh))
+            for i in range(2):
+                if loc[p, i] < 0:
+                    continue
+                grad[loc[p, i]] += fn * (c[i] @ m @ xi if r <= lim else coef * (xh @ c[i]))
+                for j in range(2):
+                    if loc[p, j] >= 0:
+                        hess[p, i, j] = fn * (c[i] @ m @ c[j])
+            continue
         s = np.linalg.norm(u)
         total += mufn * dt * np.log1p(np.expm1(k * s) ** 2 / (2 * np.exp(k * s))) / k  # ln cosh
         # dD/dθ_i = μF_n tanh(k s) û·c_i ; d²D = μF_n/dt c_iᵀ [tanh(ks)/s (I − ûûᵀ) + k sech²(ks) ûûᵀ] c_j
@@ -44,8 +61,10 @@ def ref_terms(dtheta, loc, record, dt, nu):
     return total, grad, hess
 
 
-def random_records(rng, k, slip_scale):
-    rec = np.zeros((k, 10))
+def random_records(rng, k, slip_scale, stick=False):
+    """Random pair records; ``stick``: elastic-stick records (κ > 0, the spring ``ξ = u dt`` from about
+    half to twice its limit)."""
+    rec = np.zeros((k, RECORD_SIZE))
     for p in range(k):
         n = rng.normal(size=3)
         n /= np.linalg.norm(n)
@@ -54,6 +73,10 @@ def random_records(rng, k, slip_scale):
         rec[p, 3:6] = proj @ rng.normal(size=3) * 1e-3
         rec[p, 6:9] = proj @ rng.normal(size=3) * 1e-3
         rec[p, 9] = rng.uniform(0.01, 1.0)
+        rec[p, 10] = 1.0
+        if stick:
+            rec[p, 10] = rng.uniform(0.1, 0.6)  # μ_L
+            rec[p, 11] = rec[p, 10] / (np.linalg.norm(rec[p, 0:3]) * DT * rng.uniform(0.5, 2.0) + 1e-300)
     return rec
 
 
@@ -63,10 +86,11 @@ def run(dtheta, loc, rec, dt=DT, nu=NU):
     return spin_friction_terms(dtheta, loc, rec, dt, nu, g, h), g, h
 
 
+@pytest.mark.parametrize("stick", [False, True])
 @pytest.mark.parametrize("slip_scale", [0.0, 1e-5, 1e-3, 1.0])
-def test_against_reference(slip_scale):
+def test_against_reference(slip_scale, stick):
     rng = np.random.default_rng(3)
-    rec = random_records(rng, 12, slip_scale)
+    rec = random_records(rng, 12, slip_scale, stick)
     loc = rng.integers(-1, 8, size=(12, 2))
     dtheta = rng.normal(size=8) * 1e-3 * (slip_scale > 0)
     d, g, h = run(dtheta, loc, rec)
@@ -76,10 +100,11 @@ def test_against_reference(slip_scale):
     np.testing.assert_allclose(h, h_ref, rtol=1e-9, atol=1e-12 * np.abs(h_ref).max(initial=1e-300))
 
 
+@pytest.mark.parametrize("stick", [False, True])
 @pytest.mark.parametrize("slip_scale", [1e-5, 1e-3, 0.3])
-def test_gradient_and_hessian_against_finite_differences(slip_scale):
+def test_gradient_and_hessian_against_finite_differences(slip_scale, stick):
     rng = np.random.default_rng(5)
-    rec = random_records(rng, 6, slip_scale)
+    rec = random_records(rng, 6, slip_scale, stick)
     loc = np.array([[0, 1], [1, 2], [2, -1], [-1, 3], [3, 0], [4, 4]])
     rec[5, 9] = 0.0  # a pair without normal force contributes nothing
     dtheta = rng.normal(size=5) * slip_scale * DT / 1e-3 * 0.3
@@ -111,7 +136,7 @@ def test_consistent_with_the_pair_kernel():
         z, pair = random_pair(rng, 10 ** rng.uniform(-6, -1))
         if not stable(z, pair):
             continue
-        spin = np.zeros(10)
+        spin = np.zeros(RECORD_SIZE)
         res = evaluate(z, pair)
         from knotsim.contact.surface_friction import surface_friction_pair  # the record of this z
 
@@ -121,7 +146,8 @@ def test_consistent_with_the_pair_kernel():
         Q = np.zeros(14)
         J = np.zeros((14, 14))
         surface_friction_pair(p, pair.z_prev[:12].copy(), z[12:].copy(), pair.z_prev[12:].copy(), pair.dt,
-                              pair.mu, pair.nu, pair.ha, pair.hb, fc, dfc, ba, bb, dba, dbb, Q, J, spin, True)
+                              pair.mu, pair.nu, pair.ha, pair.hb, fc, dfc, ba, bb, dba, dbb,
+                              np.array(pair.xi0, dtype=float), pair.mu_limit, pair.kappa, Q, J, spin, True)
         loc = np.array([[0, 1]])
         d, g, h = run(np.zeros(2), loc, spin[None, :], pair.dt, pair.nu)
         scale = max(np.abs(res.Q[12:]).max(), 1e-300)

@@ -36,7 +36,7 @@ from knotsim.contact.distance import (
 from knotsim.contact.friction import friction_pair
 from knotsim.contact.potential import contact_pair_energy
 from knotsim.contact.regularized_distance import regularized_beta_gradients, regularized_distance
-from knotsim.contact.surface_friction import PAIR_UNKNOWNS, surface_friction_pair
+from knotsim.contact.surface_friction import PAIR_UNKNOWNS, RECORD_SIZE, surface_friction_pair
 
 from .reference_kernels import ref_surface_friction, ref_surface_normal, ref_surface_velocity_map
 
@@ -63,6 +63,10 @@ class Pair:
     eta: float = 0.0
     dt: float = DT
     nu: float = NU
+    #: the elastic-stick law when ``kappa > 0`` (1/m): spring at the start of the step (m), limit
+    xi0: tuple = (0.0, 0.0, 0.0)
+    mu_limit: float = 0.0
+    kappa: float = 0.0
 
 
 @dataclasses.dataclass
@@ -76,6 +80,7 @@ class Result:
     beta_b: float
     case: int
     delta: float
+    record: np.ndarray | None = None
 
 
 def distance(p, eta):
@@ -100,11 +105,13 @@ def evaluate(z, pair, want_jacobian=True):
     fc, dfc, ba, bb, dba, dbb, case, delta = contact_inputs(p, pair)
     Q = np.zeros(PAIR_UNKNOWNS)
     J = np.zeros((PAIR_UNKNOWNS, PAIR_UNKNOWNS))
+    record = np.zeros(RECORD_SIZE)
     slip, rolling = surface_friction_pair(
         p, np.array(pair.z_prev[:12]), np.array(z[12:], dtype=float), np.array(pair.z_prev[12:]), pair.dt,
-        pair.mu, pair.nu, pair.ha, pair.hb, fc, dfc, ba, bb, dba, dbb, Q, J, np.zeros(10), want_jacobian,
+        pair.mu, pair.nu, pair.ha, pair.hb, fc, dfc, ba, bb, dba, dbb, np.array(pair.xi0, dtype=float),
+        pair.mu_limit, pair.kappa, Q, J, record, want_jacobian,
     )
-    return Result(Q, J, slip, rolling, fc, ba, bb, case, delta)
+    return Result(Q, J, slip, rolling, fc, ba, bb, case, delta, record)
 
 
 def reference(z, pair, res):
@@ -267,7 +274,7 @@ def test_zero_contact_force_gives_zero_friction():
     zeros = np.zeros(12)
     out = surface_friction_pair(z[:12].copy(), pair.z_prev[:12].copy(), z[12:].copy(),
                                 pair.z_prev[12:].copy(), DT, 0.3, NU, 0.1, 0.1, zeros, np.zeros((12, 12)),
-                                0.5, 0.5, zeros, zeros, Q, J, np.full(10, 3.0), True)
+                                0.5, 0.5, zeros, zeros, np.zeros(3), 0.0, 0.0, Q, J, np.full(RECORD_SIZE, 3.0), True)
     assert out == (0.0, 0.0) and not Q.any() and not J.any()
 
 
@@ -279,7 +286,8 @@ def test_force_only_evaluation_leaves_jacobian_untouched():
     Q = np.zeros(14)
     J = np.full((14, 14), 7.0)
     surface_friction_pair(p, pair.z_prev[:12].copy(), z[12:].copy(), pair.z_prev[12:].copy(), DT, pair.mu, NU,
-                          pair.ha, pair.hb, fc, dfc, ba, bb, dba, dbb, Q, J, np.zeros(10), False)
+                          pair.ha, pair.hb, fc, dfc, ba, bb, dba, dbb, np.zeros(3), 0.0, 0.0, Q, J,
+                          np.zeros(RECORD_SIZE), False)
     assert np.array_equal(Q, full.Q) and np.all(J == 7.0)
 
 
@@ -576,12 +584,13 @@ def test_jacobian_includes_beta_normal_and_angle_terms():
             pair.ha, pair.hb)
     Q = np.zeros(14)
     J = np.zeros((14, 14))
-    spin = np.zeros(10)
-    surface_friction_pair(*args, fc, dfc, ba, bb, dba, dbb, Q, J, spin, True)
+    spin = np.zeros(RECORD_SIZE)
+    law = (np.zeros(3), 0.0, 0.0)
+    surface_friction_pair(*args, fc, dfc, ba, bb, dba, dbb, *law, Q, J, spin, True)
     J_nob = np.zeros((14, 14))
-    surface_friction_pair(*args, fc, dfc, ba, bb, 0 * dba, 0 * dbb, Q, J_nob, spin, True)
+    surface_friction_pair(*args, fc, dfc, ba, bb, 0 * dba, 0 * dbb, *law, Q, J_nob, spin, True)
     J_nofc = np.zeros((14, 14))
-    surface_friction_pair(*args, fc, 0 * dfc, ba, bb, dba, dbb, Q, J_nofc, spin, True)
+    surface_friction_pair(*args, fc, 0 * dfc, ba, bb, dba, dbb, *law, Q, J_nofc, spin, True)
     assert jac_fd_error(z, pair) <= JAC_RTOL
     assert np.abs(J_nob - J).max() > 1e-4 * np.abs(J).max()
     assert np.abs(J_nofc - J).max() > 1e-4 * np.abs(J).max()

@@ -18,7 +18,10 @@ from knotsim.contact.distance import (
 from knotsim.contact.friction import friction_pair
 from knotsim.contact.potential import pair_energy
 from knotsim.contact.regularized_distance import regularized_beta_gradients
-from knotsim.contact.surface_friction import surface_friction_pair
+from knotsim.contact.surface_friction import RECORD_SIZE, surface_friction_pair
+
+#: Columns of ``pair_surface``: slip and rolling speed, the two edge-angle torques, the pair's record.
+SURFACE_COLUMNS = 4 + RECORD_SIZE
 
 
 @njit(cache=True)
@@ -50,49 +53,49 @@ def pair_dofs_from_edges(pairs, edge_dofs):
 @njit(cache=True)
 def contact_evaluate_regularized(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
                                  want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta,
-                                 pair_theta, pair_h, pair_surface):
+                                 pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance):
     """:func:`contact_evaluate` with the regularized distance (every ``pair_eta > 0``), centre-line
     friction."""
     return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
                             blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, True, False,
-                            pair_theta, pair_h, pair_surface)
+                            pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance)
 
 
 @njit(cache=True)
 def contact_evaluate_exact(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
                            want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta,
-                           pair_theta, pair_h, pair_surface):
+                           pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance):
     """:func:`contact_evaluate` with the exact segment distance (``pair_eta`` unused), centre-line
     friction."""
     return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
                             blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, False, False,
-                            pair_theta, pair_h, pair_surface)
+                            pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance)
 
 
 @njit(cache=True)
 def contact_evaluate_regularized_surface(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
                                          want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta,
-                                         pair_theta, pair_h, pair_surface):
+                                         pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance):
     """:func:`contact_evaluate` with the regularized distance and friction at the rods' surfaces."""
     return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
                             blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, True, True,
-                            pair_theta, pair_h, pair_surface)
+                            pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance)
 
 
 @njit(cache=True)
 def contact_evaluate_exact_surface(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
                                    want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta,
-                                   pair_theta, pair_h, pair_surface):
+                                   pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance):
     """:func:`contact_evaluate` with the exact segment distance and friction at the rods' surfaces."""
     return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
                             blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, False, True,
-                            pair_theta, pair_h, pair_surface)
+                            pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance)
 
 
 @njit(inline="always", cache=True)
 def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
                      blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, regularized, surface,
-                     pair_theta, pair_h, pair_surface):
+                     pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance):
     """Contact and friction of every candidate pair at the Newton iterate ``q``.
 
     Called through :func:`contact_evaluate_regularized`, :func:`contact_evaluate_exact` and their
@@ -122,11 +125,15 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
         forces on the edge angles too); ``False``: centre-line friction (:mod:`knotsim.contact.friction`).
     pair_theta : (k, 2) int64, index in ``q`` of the angles of the pair's edges (used if ``surface``).
     pair_h : (k, 2) float64, radii of the pair's edges (m; used if ``surface``).
-    pair_surface : (k, 14) float64 output (written if ``surface``): slip speed and rolling speed (m/s) of
-        every pair in range with friction (see :func:`~knotsim.contact.surface_friction.surface_friction_pair`),
-        the friction torques on its two edge angles (N m) and its ``spin_out`` record (columns 4–13: the
-        law in the edge angles alone, for :func:`~knotsim.contact.surface_friction.spin_friction_terms`);
-        zero for the others.
+    pair_surface : (k, SURFACE_COLUMNS) float64 output (written if ``surface``): slip speed and rolling
+        speed (m/s) of every pair in range with friction (see
+        :func:`~knotsim.contact.surface_friction.surface_friction_pair`), the friction torques on its two
+        edge angles (N m) and its record (columns 4 on: the law in the edge angles alone, for
+        :func:`~knotsim.contact.surface_friction.spin_friction_terms`, and the normal); zero for the others.
+    pair_xi0 : (k, 3) float64, each pair's tangential spring displacement at the start of the step (m),
+        pair_mu_limit : (k,) float64 its limit coefficient (μ_s sticking, μ_k sliding), and
+        stick_distance : δ_s (m) of the elastic-stick law (docs/physics.md §3.6), ``κ = μ/δ_s``; 0: the
+        smooth law of ``nu`` (``pair_xi0``, ``pair_mu_limit`` unused). Surface friction only.
 
     Returns
     -------
@@ -139,8 +146,10 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     pp = np.empty(12)
     grad = np.empty(12)
     hess = np.empty((12, 12))
-    if surface and (pair_surface.shape[0] != npair or pair_surface.shape[1] != 14):
-        raise ValueError("pair_surface must be a (k, 14) array")
+    if surface and (pair_surface.shape[0] != npair or pair_surface.shape[1] != SURFACE_COLUMNS):
+        raise ValueError("pair_surface must be a (k, SURFACE_COLUMNS) array")
+    if surface and stick_distance > 0.0 and (pair_xi0.shape[0] != npair or pair_mu_limit.shape[0] != npair):
+        raise ValueError("pair_xi0 and pair_mu_limit must have one row per pair")
     fc = np.empty(12)
     dfc = np.empty((12, 12))
     dbi = np.empty(12)
@@ -149,7 +158,8 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     jfr = np.empty((12, 12))
     fsu = np.empty(14)
     jsu = np.empty((14, 14))
-    spin = np.empty(10)
+    spin = np.empty(RECORD_SIZE)
+    xi = np.zeros(3)
     th = np.empty(2)
     thp = np.empty(2)
     nb = blocks.shape[1]
@@ -163,7 +173,7 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
         pair_delta[k] = delta
         slot = block_slot[k]
         if surface:
-            for m in range(14):
+            for m in range(SURFACE_COLUMNS):
                 pair_surface[k, m] = 0.0
         if E <= 0.0:
             for m in range(12):
@@ -201,13 +211,21 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
                 th[1] = q[tb]
                 thp[0] = q_prev[ta]
                 thp[1] = q_prev[tb]
+                kappa = 0.0
+                mu_lim = 0.0
+                if stick_distance > 0.0:
+                    kappa = mu / stick_distance
+                    mu_lim = pair_mu_limit[k]
+                    for m in range(3):
+                        xi[m] = pair_xi0[k, m]
                 slip, rolling = surface_friction_pair(p, pp, th, thp, dt, mu, nu, pair_h[k, 0], pair_h[k, 1], fc,
-                                                      dfc, bi, bj, dbi, dbj, fsu, jsu, spin, want_jacobian)
+                                                      dfc, bi, bj, dbi, dbj, xi, mu_lim, kappa, fsu, jsu, spin,
+                                                      want_jacobian)
                 pair_surface[k, 0] = slip
                 pair_surface[k, 1] = rolling
                 pair_surface[k, 2] = fsu[12]
                 pair_surface[k, 3] = fsu[13]
-                for m in range(10):
+                for m in range(RECORD_SIZE):
                     pair_surface[k, 4 + m] = spin[m]
                 for m in range(12):
                     pair_ff[k, m] = fsu[m]

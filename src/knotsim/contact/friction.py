@@ -81,6 +81,27 @@ def slip_potential(s, nu):
 
 
 @njit(cache=True)
+def stick_functions(r, mu_limit, kappa):
+    """Elastic-stick law of a tangential spring displacement ``r = |ξ| >= 0`` (m): the friction per unit
+    normal force is ``−φ(r) ξ`` with ``φ = κ`` (1/m) while ``κ r <= μ_L`` (sticking, an elastic spring)
+    and ``φ = μ_L / r`` beyond (sliding at the limit ``μ_L``). Returns ``(φ, ψ)`` with ``ψ = φ'(r)/r``
+    (0 while sticking, ``−μ_L/r³`` beyond; 1/m³). ``kappa`` (1/m) is ``μ_k/δ_s``, ``mu_limit`` the
+    limit coefficient ``μ_L`` (μ_s for a sticking contact, μ_k for a sliding one; docs/physics.md §3.6)."""
+    if kappa * r <= mu_limit:
+        return kappa, 0.0
+    return mu_limit / r, -mu_limit / (r * r * r)
+
+
+@njit(cache=True)
+def stick_potential(r, mu_limit, kappa):
+    """Potential of :func:`stick_functions` per unit normal force (m): ``H(r) = κ r²/2`` while
+    ``κ r <= μ_L``, ``μ_L r − μ_L²/(2κ)`` beyond (``H' = φ r``; convex and C¹)."""
+    if kappa * r <= mu_limit:
+        return 0.5 * kappa * r * r
+    return mu_limit * r - 0.5 * mu_limit * mu_limit / kappa
+
+
+@njit(cache=True)
 def friction_pair(p, p_prev, dt, mu, nu, fc, dfc, beta_i, beta_j, dbeta_i, dbeta_j, force_out, jac_out,
                   want_jacobian=True):
     """Friction force on the 4 nodes of a contact pair and its exact Jacobian.

@@ -50,6 +50,7 @@ import numpy as np
 from knotsim.contact import diagnostics
 from knotsim.contact._model_kernels import gap_summary
 from knotsim.contact.assembly import (
+    SURFACE_COLUMNS,
     approach_forces,
     contact_evaluate_exact,
     contact_evaluate_exact_surface,
@@ -60,12 +61,15 @@ from knotsim.contact.assembly import (
 )
 from knotsim.contact.broadphase import find_candidate_pairs, node_drift
 from knotsim.contact.options import ContactOptions, StiffnessMode
-from knotsim.contact.surface_friction import SpinFriction
+from knotsim.contact.stick import StickHistory
+from knotsim.contact.surface_friction import RECORD_SIZE, SpinFriction
 from knotsim.contact.swept import pass_through, swept_box_pairs
 from knotsim.errors import ConfigError
 from knotsim.geometry import exclusion
 from knotsim.solver._kernels import same_values
 
+#: Largest IMC tolerance δ accepted, in units of the smallest rod radius.
+MAX_DELTA_RADII = 2.0
 #: Weight of the new target in the downward moving average of the adaptive stiffness (per step).
 STIFFNESS_RELAX = 0.02
 #: Factor applied to the adaptive stiffness after a step rejected for penetration.
@@ -89,7 +93,9 @@ class ContactMemory:
     to checkpoints field by field): the stiffness ``k_c`` (N/m), the largest nodal contact force of
     the last accepted step (N) and the largest step seen (s) that drive it, the number of broad-phase
     rebuilds, the Verlet pair list ``pairs (k, 2)``, which of them have Jacobian blocks
-    ``block_mask (k,)`` and the positions ``q_build`` the list was built at (``None``: build it)."""
+    ``block_mask (k,)`` and the positions ``q_build`` the list was built at (``None``: build it); with
+    the elastic-stick law, every listed pair's tangential spring displacement ``stick_xi (k, 3)`` (m)
+    and whether it slides ``stick_sliding (k,)`` (:mod:`knotsim.contact.stick`)."""
 
     k_c: float = math.nan
     fmax_accepted: float = 0.0
@@ -98,6 +104,8 @@ class ContactMemory:
     pairs: np.ndarray | None = None
     block_mask: np.ndarray | None = None
     q_build: np.ndarray | None = None
+    stick_xi: np.ndarray | None = None
+    stick_sliding: np.ndarray | None = None
 
 
 def _memory_field(name: str, doc: str) -> property:
@@ -120,14 +128,16 @@ class _Eval:
     delta: np.ndarray = field(default_factory=lambda: np.zeros(0))
     fc: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)))
     ff: np.ndarray = field(default_factory=lambda: np.zeros((0, 12)))
-    #: (k, 14) slip and rolling speeds (m/s), friction torques on the two edge angles (N m) and the
-    #: law in the edge angles alone (``spin_out``, columns 4–13) of every
-    #: pair, with surface friction (zeros otherwise)
-    surface: np.ndarray = field(default_factory=lambda: np.zeros((0, 14)))
+    #: (k, SURFACE_COLUMNS) slip and rolling speeds (m/s), friction torques on the two edge angles
+    #: (N m) and the pair's record (``spin_out``, columns 4 on) of every pair, with surface friction
+    #: (zeros otherwise)
+    surface: np.ndarray = field(default_factory=lambda: np.zeros((0, SURFACE_COLUMNS)))
 
 
 #: No evaluation yet this step (shared: an ``_Eval`` is never changed after it is made).
 _NO_EVAL = _Eval()
+#: Kernel arguments of the smooth law (no spring history): ``pair_xi0``, ``pair_mu_limit``, ``stick_distance``.
+_SMOOTH_LAW = (np.zeros((0, 3)), np.zeros(0), 0.0)
 
 
 class Contact:
@@ -165,7 +175,17 @@ class Contact:
         #: model without friction needs no angles (both laws are then the same)
         self.surface_friction = s.friction_model == "surface" and bool(np.any(self._mu_table > 0.0))
         self._block_width = 14 if self.surface_friction else 12
+        #: the elastic-stick law (``stick_distance`` set): per-pair spring history in the run memory
+        self.stick = (StickHistory(model, s.stick_distance, self._mu_table,
+                                   self._mu_matrix(s.mu_static) if s.mu_static is not None else self._mu_table)
+                      if self.surface_friction and s.stick_distance is not None else None)
         self.h_min = float(np.min(m.edge_radius)) if m.n_edges else 1.0
+        if m.n_edges and s.delta > MAX_DELTA_RADII * self.h_min:
+            raise ConfigError("contact.delta",
+                              f"must be at most {MAX_DELTA_RADII:g} x the smallest rod radius ({self.h_min:g} m), got "
+                              f"{s.delta!r}: the IMC tolerance is the gap over which the contact force builds up, a "
+                              f"fraction of the radius (default 5e-4 m); a larger one puts every pair of edges in "
+                              f"contact")
         node_mass = m.mass[m.node_dof] if m.n_nodes else np.zeros(1)
         if s.stiffness_floor is not None:
             floor = s.stiffness_floor
@@ -192,6 +212,7 @@ class Contact:
             for r, rod in enumerate(model.rods)], dtype=np.int64)
         self.pair_d = np.zeros(0)
         self.pair_mu = np.zeros(0)
+        self.pair_mu_static = np.zeros(0)
         self.pair_hmin = np.zeros(0)
         self._blocks = np.zeros((0, self._block_width, self._block_width))
         self._block_mask = np.zeros(0, bool)
@@ -292,6 +313,8 @@ class Contact:
         self._q_prev = q
         self._dt = dt
         self._last = _NO_EVAL
+        if self.stick is not None:
+            self.stick.inherit(self.memory, self.pairs)
         self.timers["broad_phase"] += time.perf_counter() - t0
         if s.stiffness_mode == "adaptive":
             t1 = time.perf_counter()
@@ -313,6 +336,8 @@ class Contact:
 
     def _set_pairs(self, pairs) -> None:
         m = self.model
+        if self.stick is not None:
+            self.stick.remap(self.memory, self.pairs, pairs)
         self.pairs = pairs
         self.pair_dofs = pair_dofs_from_edges(pairs, m.edge_dofs)
         ra = m.edge_radius[pairs[:, 0]]
@@ -325,6 +350,8 @@ class Contact:
         lb = m.rest_length[pairs[:, 1]]
         self.pair_eta = 8.0 * self.pair_d * self.options.parallel_smoothing / (la * la + lb * lb)
         self.pair_mu = np.ascontiguousarray(self._mu_table[m.edge_rod[pairs[:, 0]], m.edge_rod[pairs[:, 1]]])
+        self.pair_mu_static = (np.ascontiguousarray(self.stick.mu_static[m.edge_rod[pairs[:, 0]], m.edge_rod[pairs[:, 1]]])
+                               if self.stick is not None else self.pair_mu)
         self._pair_keys = pairs[:, 0] * m.n_edges + pairs[:, 1]
         self._set_blocks(np.zeros(pairs.shape[0], bool))
 
@@ -363,7 +390,7 @@ class Contact:
         (``w`` as in :meth:`block_dofs`)."""
         t0 = time.perf_counter()
         k = self.pair_dofs.shape[0]
-        ev = _Eval(q.copy(), np.empty(k), np.empty((k, 12)), np.empty((k, 12)), np.zeros((k, 14)))
+        ev = _Eval(q.copy(), np.empty(k), np.empty((k, 12)), np.empty((k, 12)), np.zeros((k, SURFACE_COLUMNS)))
         # one kernel per distance and friction law: a run compiles only the one it uses (pair_eta > 0
         # iff smoothing > 0)
         if self.options.parallel_smoothing > 0.0:
@@ -371,7 +398,9 @@ class Contact:
         else:
             kernel = contact_evaluate_exact_surface if self.surface_friction else contact_evaluate_exact
         args = (self.pair_dofs, self.pair_d, self.pair_mu, self.options.delta, self.options.nu, self.k_c)
-        tail = (self.pair_eta, self.pair_theta, self.pair_h, ev.surface)
+        tail = (self.pair_eta, self.pair_theta, self.pair_h, ev.surface,
+                *(self.stick.kernel_args(self.memory, self.pair_mu, self.pair_mu_static) if self.stick is not None
+                  else _SMOOTH_LAW))
         e, missing = kernel(q, q_prev, dt, *args, residual, bool(want_jacobian), self._blocks, self._block_slot,
                             ev.delta, ev.fc, ev.ff, *tail)
         self._last = ev
@@ -401,10 +430,11 @@ class Contact:
         ev = self._last
         if not self.surface_friction or ev.q is None or ev.surface.shape[0] == 0:
             return None
-        live = ev.surface[:, 13] > 0.0
+        live = ev.surface[:, 13] * ev.surface[:, 14] > 0.0  # F_n × coefficient
         if not live.any():
             return None
-        return SpinFriction(self.pair_theta[live], np.ascontiguousarray(ev.surface[live, 4:]), self.options.nu)
+        return SpinFriction(self.pair_theta[live], np.ascontiguousarray(ev.surface[live, 4:4 + RECORD_SIZE]),
+                            self.options.nu)
 
     def _evaluated_at(self, q) -> _Eval:
         ev = self._last
@@ -566,6 +596,9 @@ class Contact:
         # the stepper asks for stats only for an accepted step: its contact force drives k_c
         self._fmax_accepted = self._fmax_pending
         self._ev_accepted = self._ev_pending
+        if self.stick is not None:
+            self.stick.accept(self.memory, self._ev_pending[3], self._dt)
+            self._stats.update(self.stick.stats(self.memory, self._ev_pending[3]))
         return dict(self._stats)
 
     def node_forces(self) -> tuple[np.ndarray, np.ndarray]:

@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from knotsim import _vec3 as v3
-from knotsim.contact.friction import FRICTION_SHARPNESS, slip_functions
+from knotsim.contact.friction import FRICTION_SHARPNESS, slip_functions, stick_functions
 from knotsim.contact.obstacle_kernels import node_distance
 from knotsim.contact.potential import imc_energy_derivatives
 from knotsim.contact.surface_friction import lever_force, lever_force_dot, lever_velocity, lever_velocity_dot
@@ -61,7 +61,7 @@ def _edge(z, zp, a, b, th, w, h, idt):
 
 @njit(cache=True)
 def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel, omega, center, force, jac,
-                         want_jacobian, gr, H):
+                         want_jacobian, gr, H, xi0, mu_limit, kappa, xi_out):
     """Contact and surface friction of one node: generalised force on its stencil and its Jacobian.
 
     Parameters
@@ -78,6 +78,11 @@ def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel
     force : (11,) output, contact plus friction generalised force (N on positions, N m on angles).
     jac : (11, 11) output, ``∂force/∂z`` (N/m, N, N/rad, N m/rad by block), when ``want_jacobian``.
     gr, H : (3,) and (3, 3) scratch (the distance gradient ``n`` and Hessian on return).
+    xi0, mu_limit, kappa, xi_out : the elastic-stick law (docs/physics.md §3.6) when ``kappa > 0``
+        (1/m, ``μ_k/δ_s``): ``xi0`` (3,) the node's tangential spring at the start of the step (m),
+        ``mu_limit`` its limit coefficient; the friction is ``f = −F_n φ(|ξ|) ξ``
+        (:func:`~knotsim.contact.friction.stick_functions`), ``ξ = xi0 + u dt``, written to
+        ``xi_out`` (3,) (zeros otherwise). ``kappa = 0``: the smooth law of ``mu`` and ``nu``.
 
     Returns
     -------
@@ -92,6 +97,8 @@ def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel
                 jac[r, m] = 0.0
     delta, R = node_distance(kind, z[4:7], geom, gr, H)
     d = h + R
+    for k in range(3):
+        xi_out[k] = 0.0
     if delta >= d + tol:
         return 0.0, delta - d, _ZERO, _ZERO, _ZERO
     E, dE, d2E = imc_energy_derivatives(delta, d, tol)
@@ -121,8 +128,16 @@ def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel
     wn = v3.dot(wv, n)
     u = v3.axpy(-wn, n, wv)
     s = v3.norm(u)
-    _, phi, psi = slip_functions(s, nu)
-    f = v3.scale(-mu * fn * phi, u)
+    if kappa > 0.0:  # elastic stick: the spring ξ = ξ0 + u dt
+        vec = v3.add((xi0[0], xi0[1], xi0[2]), v3.scale(dt, u))
+        phi, psi = stick_functions(v3.norm(vec), mu_limit, kappa)
+        f = v3.scale(-fn * phi, vec)
+        for k in range(3):
+            xi_out[k] = vec[k]
+    else:
+        vec = u
+        _, phi, psi = slip_functions(s, nu)
+        f = v3.scale(-mu * fn * phi, u)
     gA = lever_force(cA, tA, f, n)
     gB = lever_force(cB, tB, f, n)
     mid = v3.sub(v3.add(f, gA), gB)
@@ -174,9 +189,15 @@ def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel
         dwv = v3.sub(v3.axpy(idt, dx, drot), v3.cross(om, dy))
         dwn = v3.dot(dwv, n) + v3.dot(wv, dn)
         du = v3.sub(v3.axpy(-dwn, n, dwv), v3.scale(wn, dn))
-        udu = v3.dot(u, du)
-        df = v3.scale(-mu, v3.add(v3.scale(dfn * phi, u),
-                                  v3.scale(fn, v3.add(v3.scale(phi, du), v3.scale(psi * udu, u)))))
+        if kappa > 0.0:
+            dvec = v3.scale(dt, du)
+            vdv = v3.dot(vec, dvec)
+            df = v3.scale(-1.0, v3.add(v3.scale(dfn * phi, vec),
+                                       v3.scale(fn, v3.add(v3.scale(phi, dvec), v3.scale(psi * vdv, vec)))))
+        else:
+            udu = v3.dot(u, du)
+            df = v3.scale(-mu, v3.add(v3.scale(dfn * phi, u),
+                                      v3.scale(fn, v3.add(v3.scale(phi, du), v3.scale(psi * udu, u)))))
         dgA = lever_force_dot(cA, dcA, tA, dtA, f, df, n, dn)
         dgB = lever_force_dot(cB, dcB, tB, dtB, f, df, n, dn)
         for k in range(3):
@@ -190,7 +211,8 @@ def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel
 
 @njit(cache=True)
 def obstacle_surface_evaluate(kind, geom, stencil, weights, node_h, q, q_prev, dt, tol, k_c, mu, nu, vel, omega,
-                              center, residual, want_jacobian, blocks, fc, ff, gap, normal, vs):
+                              center, residual, want_jacobian, blocks, fc, ff, gap, normal, vs, node_xi0,
+                              node_mu_limit, stick_distance, xi_out):
     """Contact and surface friction of every node with one obstacle (:func:`node_surface_contact`).
 
     ``stencil (k, 11)`` int64 unknowns of each node's stencil, ``weights (k, 2)`` its edge weights
@@ -198,8 +220,18 @@ def obstacle_surface_evaluate(kind, geom, stencil, weights, node_h, q, q_prev, d
     iterate and at the start of the step. Adds ``−force`` to ``residual``; writes ``blocks (k, 11, 11)``
     = ``−∂force/∂z`` when ``want_jacobian``; ``fc``, ``ff``, ``normal``, ``vs`` ``(k, 3)`` get the
     contact force on the node, the friction force at its surface point (N), the normal and the
-    surface point's velocity (m/s); ``gap (k,)`` the gap ``Δ − d`` (m). Returns the energy (J).
+    surface point's velocity (m/s); ``gap (k,)`` the gap ``Δ − d`` (m). With ``stick_distance = δ_s > 0``
+    (m) the elastic-stick law: ``node_xi0 (k, 3)`` the nodes' springs at the start of the step (m),
+    ``node_mu_limit (k,)`` their limit coefficients, ``κ = mu/δ_s``; ``xi_out (k, 3)`` gets the springs
+    at the iterate (m). Returns the energy (J).
     """
+    stick = stick_distance > 0.0 and mu > 0.0
+    if stick and (node_xi0.shape[0] != stencil.shape[0] or node_mu_limit.shape[0] != stencil.shape[0]
+                  or xi_out.shape[0] != stencil.shape[0]):
+        raise ValueError("node_xi0, node_mu_limit and xi_out must have one row per node")
+    kappa = mu / stick_distance if stick else 0.0
+    xi = np.zeros(3)
+    xo = np.zeros(3)
     gr = np.zeros(3)
     H = np.zeros((3, 3))
     jac = np.zeros((STENCIL, STENCIL))
@@ -211,9 +243,17 @@ def obstacle_surface_evaluate(kind, geom, stencil, weights, node_h, q, q_prev, d
         for j in range(STENCIL):
             z[j] = q[stencil[i, j]]
             zp[j] = q_prev[stencil[i, j]]
+        mu_lim = 0.0
+        if stick:
+            mu_lim = node_mu_limit[i]
+            for k in range(3):
+                xi[k] = node_xi0[i, k]
         e, g, fcv, ffv, vsv = node_surface_contact(kind, z, zp, weights[i, 0], weights[i, 1], dt, geom, node_h[i],
                                                    tol, k_c, mu, nu, vel, omega, center, force, jac, want_jacobian,
-                                                   gr, H)
+                                                   gr, H, xi, mu_lim, kappa, xo)
+        if stick:
+            for k in range(3):
+                xi_out[i, k] = xo[k]
         energy += e
         gap[i] = g
         for k in range(3):

@@ -71,6 +71,7 @@ from knotsim.bc.paths import Path, as_path
 from knotsim.contact.obstacle_kernels import CAPSULE, PLANE, SPHERE, obstacle_evaluate
 from knotsim.contact.obstacle_surface_kernels import STENCIL, obstacle_surface_evaluate, spin_update
 from knotsim.contact.obstacle_swept import NODE, describe, first_pass_through, obstacle_edges
+from knotsim.contact.stick import return_map
 from knotsim.errors import ConfigError, GeometryError
 
 __all__ = ["Capsule", "Obstacle", "ObstacleMemory", "Plane", "Sphere", "rotation_matrix"]
@@ -88,13 +89,17 @@ class ObstacleMemory:
     """What an :class:`Obstacle` remembers across steps (run memory, carried by the state and written
     to checkpoints field by field): the stiffness ``k_c`` (N/m), the largest node contact force of
     the last accepted step (N) and the largest step seen (s) that drive it, the start its path was
-    bound to (m, or ``None``) and the free spin ``ω (3,)`` (rad/s; ``None`` without ``spin_inertia``)."""
+    bound to (m, or ``None``), the free spin ``ω (3,)`` (rad/s; ``None`` without ``spin_inertia``) and,
+    with the elastic-stick law, every node's tangential spring ``stick_xi (k, 3)`` (m) and whether it
+    slides ``stick_sliding (k,)`` (:mod:`knotsim.contact.stick`)."""
 
     k_c: float = math.nan
     fmax_accepted: float = 0.0
     dt_ref: float = 0.0
     path_start: np.ndarray | None = None
     spin: np.ndarray | None = None
+    stick_xi: np.ndarray | None = None
+    stick_sliding: np.ndarray | None = None
 
 
 def _memory_field(name: str) -> property:
@@ -109,6 +114,9 @@ def _memory_field(name: str) -> property:
 
 _NO_SPIN = np.zeros(3)
 _NO_SPIN.flags.writeable = False
+#: kernel arguments of the smooth law (no springs)
+_NO_XI = np.zeros((0, 3))
+_NO_LIMIT = np.zeros(0)
 
 
 def rotation_matrix(rotvec) -> np.ndarray:
@@ -190,7 +198,9 @@ class Obstacle:
     ``pivot`` (motion); ``rods``: rods (names or indices) that touch it, default all;
     ``friction_model``: ``"surface"`` (default) or ``"centreline"``; ``spin_inertia`` (kg m²),
     ``spin_axis`` (spheres), ``initial_spin`` (rad/s): free spin (capsules and spheres; see the
-    module doc). Subclasses set the geometry: :class:`Plane`, :class:`Capsule`, :class:`Sphere`.
+    module doc); ``stick_distance`` δ_s (m) and ``mu_static`` (≥ ``mu``, default ``mu``): the
+    elastic-stick law of docs/physics.md §3.6 (surface friction, an obstacle without free spin), a
+    node below its static limit holds without creep. Subclasses set the geometry: :class:`Plane`, :class:`Capsule`, :class:`Sphere`.
     """
 
     kind = -1
@@ -211,7 +221,8 @@ class Obstacle:
     def __init__(self, model, name: str, *, mu: float = 0.0, delta: float = 5e-4, nu: float = 1e-4,
                  stiffness: float | None = None, stiffness_scaler: float = 500.0, penetration_limit: float = 0.2,
                  path=None, angular_velocity=None, pivot=None, rods=None, friction_model: str = "surface",
-                 spin_inertia: float | None = None, spin_axis=None, initial_spin=None):
+                 spin_inertia: float | None = None, spin_axis=None, initial_spin=None,
+                 stick_distance: float | None = None, mu_static: float | None = None):
         if not isinstance(name, str) or not name:
             raise ConfigError("obstacle.name", f"an obstacle needs a non-empty name, got {name!r}")
         self.name = name
@@ -228,6 +239,19 @@ class Obstacle:
         if not isinstance(friction_model, str) or friction_model not in FRICTION_MODELS:
             raise ConfigError(f"{f}.friction_model", f"must be 'surface' or 'centreline', got {friction_model!r}")
         self.friction_model = str(friction_model)
+        self.stick_distance = None if stick_distance is None else _number(f"{f}.stick_distance", stick_distance)
+        self.mu_static = self.mu if mu_static is None else _number(f"{f}.mu_static", mu_static, allow_zero=True)
+        if mu_static is not None and self.stick_distance is None:
+            raise ConfigError(f"{f}.mu_static", "static friction needs the elastic-stick law: give stick_distance (m), "
+                                                "e.g. 1e-5, or remove mu_static")
+        if self.mu_static < self.mu:
+            raise ConfigError(f"{f}.mu_static", f"must be at least mu = {self.mu:g}, got {self.mu_static:g}")
+        if self.stick_distance is not None and self.friction_model != "surface":
+            raise ConfigError(f"{f}.stick_distance", "the elastic-stick law acts at the rods' surfaces; set "
+                                                     "friction_model = \"surface\" or remove stick_distance")
+        if self.stick_distance is not None and spin_inertia is not None:
+            raise ConfigError(f"{f}.stick_distance", "not available for a free-spinning obstacle (spin_inertia); "
+                                                     "remove one of the two")
         try:
             self.path: Path | None = None if path is None else as_path(path)
         except ConfigError as exc:
@@ -267,6 +291,9 @@ class Obstacle:
         self._gap = np.full(k, np.inf)
         self._normal = np.zeros((k, 3))
         self._vs = np.zeros((k, 3))
+        self._xi = np.zeros((k, 3))
+        #: the elastic-stick law is on (a stick distance and some friction)
+        self.stick = self.stick_distance is not None and self.mu > 0.0
         if self.friction_model == "surface":
             self._stencil, self._weights = node_stencils(m, self.nodes)
             self._blocks = np.zeros((k, STENCIL, STENCIL))
@@ -405,10 +432,11 @@ class Obstacle:
         with blocks ``(k, 3, 3)`` or ``(k, 11, 11)`` (see :meth:`block_dofs`)."""
         m = self.model
         if self.friction_model == "surface":
+            xi0, mu_limit, stick = self._stick_args()
             e = obstacle_surface_evaluate(self.kind, self._geom, self._stencil, self._weights, self.node_h, q, q_prev,
                                           dt, self.delta, self.k_c, self.mu, self.nu, self._vel, self.surface_omega,
                                           self._cen, residual, bool(want_jacobian), self._blocks, self._fc, self._ff,
-                                          self._gap, self._normal, self._vs)
+                                          self._gap, self._normal, self._vs, xi0, mu_limit, stick, self._xi)
         else:
             e = obstacle_evaluate(self.kind, self._geom, self.nodes, m.node_dof, self.node_h, q, q_prev, dt,
                                   self.delta, self.k_c, self.mu, self.nu, self._vel, self.surface_omega, self._cen,
@@ -417,6 +445,20 @@ class Obstacle:
         self._q_eval = q.copy()
         self._qp_eval, self._dt_eval = q_prev, dt
         return float(e), (self._blocks if want_jacobian else None)
+
+    def _stick_args(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """``(node_xi0 (k, 3) m, node_mu_limit (k,), stick_distance m)`` for the kernel (0: smooth law)."""
+        if not self.stick:
+            return _NO_XI, _NO_LIMIT, 0.0
+        mem = self.memory
+        k = self.nodes.size
+        if mem.stick_xi is None or np.shape(mem.stick_xi) != (k, 3):
+            mem.stick_xi = np.zeros((k, 3))
+        if mem.stick_sliding is None or np.shape(mem.stick_sliding) != (k,):
+            mem.stick_sliding = np.zeros(k, bool)
+        mem.stick_xi = np.ascontiguousarray(mem.stick_xi, dtype=float)
+        mem.stick_sliding = np.asarray(mem.stick_sliding, bool)
+        return mem.stick_xi, np.where(mem.stick_sliding, self.mu, self.mu_static), float(self.stick_distance)
 
     def _evaluate_at(self, q) -> None:
         if getattr(self, "_q_eval", None) is None or not np.array_equal(self._q_eval, q):
@@ -522,6 +564,15 @@ class Obstacle:
         self._fmax_accepted = self._fmax_pending
         self._pose_accepted = (self._time, self._geom, self._cen)
         out = dict(self._stats)
+        if self.stick and self.nodes.size:  # the springs of the accepted step (its last evaluation)
+            _, mu_limit, _ = self._stick_args()
+            fn = np.sqrt(np.einsum("ij,ij->i", self._fc, self._fc))
+            inside = (fn > 0.0) & (self._gap < self.delta)
+            xi, sliding = return_map(self._xi, self._normal, inside, mu_limit * self.stick_distance / self.mu,
+                                     self.stick_distance)
+            self.memory.stick_xi, self.memory.stick_sliding = xi, sliding
+            out.update({f"{self.name}_stuck_contacts": int(np.count_nonzero(inside & ~sliding)),
+                        f"{self.name}_sliding_contacts": int(np.count_nonzero(sliding))})
         if self.spin_inertia is not None:
             self._advance_spin()
             n = self.name

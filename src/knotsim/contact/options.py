@@ -22,6 +22,18 @@ def _positive(name: str, value, allow_zero: bool = False) -> float:
     return float(value)
 
 
+def _coefficient(name: str, value) -> float | dict:
+    """A friction coefficient: a non-negative number, or a per-rod-pair table (see ``mu``)."""
+    if isinstance(value, dict):
+        for key, val in value.items():
+            _positive(f"{name}[{key!r}]", val, allow_zero=True)
+            if key != "default" and not (isinstance(key, tuple) and len(key) == 2):
+                raise ConfigError(f"contact.{name}",
+                                  f"table keys must be (rod_a, rod_b) pairs or 'default', got {key!r}")
+        return value
+    return _positive(name, value, allow_zero=True)
+
+
 class StiffnessMode(StrEnum):
     """How the contact stiffness k_c is chosen (:attr:`ContactOptions.stiffness_mode`)."""
 
@@ -70,6 +82,14 @@ class ContactOptions:
       edges moves from the middle of their overlap to its end over node motions of about 4ℓ, whatever
       the mesh. 0 uses
       the exact segment distance, whose force jumps between the nodes of parallel edges.
+    - ``stick_distance``: δ_s (m), switches the surface friction to the elastic-stick law
+      (docs/physics.md §3.6): every contact carries a tangential spring of stiffness ``μ F_n/δ_s``
+      that holds below its limit (no creep: a knot below its slip load does not move) and slips at
+      the limit, ``mu_static × F_n`` while it sticks and ``mu × F_n`` once it slides. ``None``
+      (default): the smooth law of ``nu``, which creeps under any tangential load. Needs
+      ``friction_model = "surface"``;
+    - ``mu_static``: static friction coefficient μ_s ≥ ``mu`` (a number or a table like ``mu``) of the
+      elastic-stick law; default ``mu`` (no static excess). Needs ``stick_distance``.
     """
 
     delta: float = 5e-4
@@ -85,6 +105,8 @@ class ContactOptions:
     self_contact: bool = True
     parallel_smoothing: float = 2e-6
     friction_model: FrictionModel | str = "surface"
+    stick_distance: float | None = None
+    mu_static: float | dict | None = None
 
     @classmethod
     def from_table(cls, table: dict) -> ContactOptions:
@@ -102,19 +124,20 @@ class ContactOptions:
             if key not in names:
                 raise ConfigError(f"contact.{key}", f"unknown key; known keys are {sorted(names)}")
             kwargs[key] = val
-        mu = kwargs.get("mu")
-        if isinstance(mu, dict):
-            parsed = {}
-            for key, val in mu.items():
-                if key == "default":
-                    parsed["default"] = val
-                    continue
-                parts = [p.strip() for p in str(key).split(",")]
-                if len(parts) != 2 or not all(parts):
-                    raise ConfigError(f"contact.mu.{key}",
-                                      "expected two rod names separated by a comma, e.g. \"a,b\"")
-                parsed[tuple(int(p) if p.lstrip("-").isdigit() else p for p in parts)] = val
-            kwargs["mu"] = parsed
+        for name in ("mu", "mu_static"):
+            mu = kwargs.get(name)
+            if isinstance(mu, dict):
+                parsed = {}
+                for key, val in mu.items():
+                    if key == "default":
+                        parsed["default"] = val
+                        continue
+                    parts = [p.strip() for p in str(key).split(",")]
+                    if len(parts) != 2 or not all(parts):
+                        raise ConfigError(f"contact.{name}.{key}",
+                                          "expected two rod names separated by a comma, e.g. \"a,b\"")
+                    parsed[tuple(int(p) if p.lstrip("-").isdigit() else p for p in parts)] = val
+                kwargs[name] = parsed
         opts = cls(**kwargs)
         opts.validate()
         return opts
@@ -123,13 +146,9 @@ class ContactOptions:
         """Raise :class:`ConfigError` naming the first bad field."""
         self.delta = _positive("delta", self.delta)
         self.nu = _positive("nu", self.nu)
-        if isinstance(self.mu, dict):
-            for key, val in self.mu.items():
-                _positive(f"mu[{key!r}]", val, allow_zero=True)
-                if key != "default" and not (isinstance(key, tuple) and len(key) == 2):
-                    raise ConfigError("contact.mu", f"table keys must be (rod_a, rod_b) pairs or 'default', got {key!r}")
-        else:
-            self.mu = _positive("mu", self.mu, allow_zero=True)
+        self.mu = _coefficient("mu", self.mu)
+        if self.mu_static is not None:
+            self.mu_static = _coefficient("mu_static", self.mu_static)
         try:
             self.stiffness_mode = StiffnessMode(self.stiffness_mode)
         except ValueError:
@@ -157,6 +176,15 @@ class ContactOptions:
                               f"must be at most 0.1 delta = {0.1 * self.delta:g} m (it is the largest increase of "
                               f"the contact distance it causes), got {self.parallel_smoothing!r}; "
                               f"typical values are 1e-6 to 1e-5 m")
+        if self.stick_distance is not None:
+            self.stick_distance = _positive("stick_distance", self.stick_distance)
+            if self.friction_model != FrictionModel.SURFACE:
+                raise ConfigError("contact.stick_distance",
+                                  "the elastic-stick law acts at the rods' surfaces; set friction_model = \"surface\" "
+                                  "or remove stick_distance")
+        elif self.mu_static is not None:
+            raise ConfigError("contact.mu_static", "static friction needs the elastic-stick law: set "
+                              "contact.stick_distance (m), e.g. 1e-5, or remove mu_static")
         if not isinstance(self.self_contact, bool | np.bool_):
             raise ConfigError("contact.self_contact", f"must be true or false, got {self.self_contact!r}")
 

@@ -34,10 +34,18 @@ from __future__ import annotations
 from numba import njit
 
 from knotsim import _vec3 as v3
-from knotsim.contact.friction import TINY_FORCE, slip_functions, slip_potential
+from knotsim.contact.friction import (
+    TINY_FORCE,
+    slip_functions,
+    slip_potential,
+    stick_functions,
+    stick_potential,
+)
 
 #: Number of unknowns of a surface-friction pair: 4 nodes and 2 edge angles.
 PAIR_UNKNOWNS = 14
+#: Length of a pair's record (``spin_out`` of :func:`surface_friction_pair`).
+RECORD_SIZE = 15
 
 
 @njit(inline="always", cache=True)
@@ -86,7 +94,7 @@ def lever_force_dot(c, cd, t, td, f, fd, n, nd):
 
 @njit(cache=True)
 def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, dfc, beta_a, beta_b,
-                          dbeta_a, dbeta_b, force_out, jac_out, spin_out, want_jacobian=True):
+                          dbeta_a, dbeta_b, xi0, mu_limit, kappa, force_out, jac_out, spin_out, want_jacobian=True):
     """Friction at the surfaces of a contact pair: generalised forces on its 14 unknowns and their
     exact Jacobian.
 
@@ -100,12 +108,20 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
     ha, hb : radii of edges a and b (m).
     fc : (12,) float64, contact force on the 4 nodes at ``p`` (N); dfc : (12, 12) its Jacobian (N/m).
     beta_a, beta_b : contact ratios at ``p``; dbeta_a, dbeta_b : (12,) float64, ``∂β/∂p`` (1/m).
+    xi0, mu_limit, kappa : the elastic-stick law (docs/physics.md §3.6) when ``kappa > 0``: ``xi0`` (3,)
+        the pair's tangential spring displacement at the start of the step (m), ``mu_limit`` its limit
+        coefficient (μ_s sticking, μ_k sliding) and ``kappa = μ_k/δ_s`` (1/m); the friction is then
+        ``f = −F_n φ(|ξ|) ξ`` of :func:`~knotsim.contact.friction.stick_functions` with
+        ``ξ = xi0 + u dt``. ``kappa = 0``: the smooth law of ``mu`` and ``nu`` (``xi0``, ``mu_limit``
+        unused).
     force_out : (14,) float64 output, generalised friction force ``Q`` (N on positions, N m on
         angles).
     jac_out : (14, 14) float64 output, ``∂Q/∂z`` (N/m, N, N/rad, N m/rad by block).
-    spin_out : (10,) float64 output, the pair's law as a function of the edge angles alone (positions
-        held): the slip ``u`` (m/s), ``c_a = −h_a t_a × n`` and ``c_b = −h_b t_b × n`` (m; the slip
-        changes by ``(c_a Δθ_a + c_b Δθ_b)/dt`` when the angles turn by ``Δθ``) and ``μ F_n`` (N); all
+    spin_out : (RECORD_SIZE,) float64 output, the pair's record: its law as a function of the edge
+        angles alone (positions held), ``w`` (m/s: the slip ``u``, or ``ξ/dt`` with the stick law),
+        ``c_a = −h_a t_a × n`` and ``c_b = −h_b t_b × n`` (m; ``w`` changes by
+        ``(c_a Δθ_a + c_b Δθ_b)/dt`` when the angles turn by ``Δθ``), ``F_n`` (N), the coefficient
+        (μ, or μ_L with the stick law), ``κ`` (1/m, 0 for the smooth law), then the normal ``n``; all
         zero for a pair without friction (see :func:`spin_friction_terms`).
     want_jacobian : when ``False`` only ``force_out`` is computed.
 
@@ -118,7 +134,7 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
     S = v3.add(v3.load(fc, 0), v3.load(fc, 3))
     sn = v3.norm(S)
     if not sn > TINY_FORCE:
-        for r in range(10):
+        for r in range(RECORD_SIZE):
             spin_out[r] = 0.0
         for r in range(14):
             force_out[r] = 0.0
@@ -160,9 +176,19 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
     s = v3.norm(u)
     rr = v3.add(rot_a, rot_b)
     rolling = v3.norm(v3.axpy(-v3.dot(rr, n), n, rr))
-    _, phi, psi = slip_functions(s, nu)
     fnorm = sn
-    f = v3.scale(-mu * fnorm * phi, u)
+    if kappa > 0.0:  # elastic stick: the spring ξ = ξ0 + u dt
+        vec = v3.add(v3.load(xi0, 0), v3.scale(dt, u))
+        phi, psi = stick_functions(v3.norm(vec), mu_limit, kappa)
+        f = v3.scale(-fnorm * phi, vec)
+        wrec = v3.scale(idt, vec)
+        coef = mu_limit
+    else:
+        vec = u
+        _, phi, psi = slip_functions(s, nu)
+        f = v3.scale(-mu * fnorm * phi, u)
+        wrec = u
+        coef = mu
     ga = lever_force(ca, ta, f, n)
     gb = lever_force(cb, tb, f, n)
     for r in range(3):
@@ -173,10 +199,13 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
     force_out[12] = -ha * v3.dot(tan, f)
     force_out[13] = -hb * v3.dot(tbn, f)
     for r in range(3):
-        spin_out[r] = u[r]
+        spin_out[r] = wrec[r]
         spin_out[3 + r] = -ha * tan[r]
         spin_out[6 + r] = -hb * tbn[r]
-    spin_out[9] = mu * fnorm
+        spin_out[12 + r] = n[r]
+    spin_out[9] = fnorm
+    spin_out[10] = coef
+    spin_out[11] = kappa
     if not want_jacobian:
         return s, rolling
     isn = 1.0 / sn
@@ -223,9 +252,15 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
         dw = v3.sub(v3.add(dtr_a, drot_a), v3.sub(dtr_b, drot_b))
         dwn = v3.dot(dw, n) + v3.dot(w, dn)
         du = v3.sub(v3.axpy(-dwn, n, dw), v3.scale(wn, dn))
-        udu = v3.dot(u, du)
-        df = v3.scale(-mu, v3.add(v3.scale(dfn * phi, u),
-                                  v3.scale(fnorm, v3.add(v3.scale(phi, du), v3.scale(psi * udu, u)))))
+        if kappa > 0.0:
+            dvec = v3.scale(dt, du)
+            vdv = v3.dot(vec, dvec)
+            df = v3.scale(-1.0, v3.add(v3.scale(dfn * phi, vec),
+                                       v3.scale(fnorm, v3.add(v3.scale(phi, dvec), v3.scale(psi * vdv, vec)))))
+        else:
+            udu = v3.dot(u, du)
+            df = v3.scale(-mu, v3.add(v3.scale(dfn * phi, u),
+                                      v3.scale(fnorm, v3.add(v3.scale(phi, du), v3.scale(psi * udu, u)))))
         dga = lever_force_dot(ca, dca, ta, dta, f, df, n, dn)
         dgb = lever_force_dot(cb, dcb, tb, dtb, f, df, n, dn)
         for r in range(3):
@@ -244,15 +279,16 @@ def spin_friction_terms(dtheta, loc, record, dt, nu, grad_out, hess_out):
 
     With the nodes fixed at the iterate, a pair's slip is affine in its two edge angles,
     ``u(Δθ) = u + (c_a Δθ_a + c_b Δθ_b)/dt``, and its friction is the gradient of the convex potential
-    ``D = μ F_n dt Γ(|u|)`` (:func:`~knotsim.contact.friction.slip_potential`): the residual of an
-    angle (``−Q_θ``) is ``∂D/∂θ``, its Jacobian ``∂²D/∂θ²`` (docs/physics.md §3.5).
+    ``D = μ F_n dt Γ(|u|)`` (:func:`~knotsim.contact.friction.slip_potential`), or with the elastic-stick
+    law (``κ > 0`` in the record) ``D = F_n H(|ξ|)``, ``ξ = u dt`` (:func:`~knotsim.contact.friction.stick_potential`):
+    the residual of an angle (``−Q_θ``) is ``∂D/∂θ``, its Jacobian ``∂²D/∂θ²`` (docs/physics.md §3.5).
 
     Parameters
     ----------
     dtheta : (m,) float64, turn of the angles from the iterate (rad), in a local numbering.
     loc : (k, 2) int64, local number of each pair's angles ``θ_a, θ_b`` (−1: held, not turned).
-    record : (k, 10) float64, each pair's ``u`` (m/s), ``c_a``, ``c_b`` (m) and ``μ F_n`` (N) at the
-        iterate (``spin_out`` of :func:`surface_friction_pair`).
+    record : (k, RECORD_SIZE) float64, each pair's record at the iterate (``spin_out`` of
+        :func:`surface_friction_pair`: ``w`` (m/s), ``c_a``, ``c_b`` (m), ``F_n`` (N), coefficient, ``κ``).
     dt : time step (s); nu : slip tolerance ν (m/s).
     grad_out : (m,) float64 output, ``Σ ∂D/∂Δθ`` (N m).
     hess_out : (k, 2, 2) float64 output, each pair's ``∂²D/∂(Δθ_a, Δθ_b)²`` (N m/rad; zero rows and
@@ -269,7 +305,10 @@ def spin_friction_terms(dtheta, loc, record, dt, nu, grad_out, hess_out):
         for i in range(2):
             for j in range(2):
                 hess_out[p, i, j] = 0.0
-        mufn = record[p, 9]
+        fn = record[p, 9]
+        coef = record[p, 10]
+        kap = record[p, 11]
+        mufn = coef * fn
         if not mufn > 0.0:
             continue
         ia = loc[p, 0]
@@ -281,17 +320,26 @@ def spin_friction_terms(dtheta, loc, record, dt, nu, grad_out, hess_out):
              record[p, 2] + (record[p, 5] * da + record[p, 8] * db) / dt)
         ca = (record[p, 3], record[p, 4], record[p, 5])
         cb = (record[p, 6], record[p, 7], record[p, 8])
-        s = v3.norm(u)
-        _, phi, psi = slip_functions(s, nu)
-        total += mufn * dt * slip_potential(s, nu)
+        if kap > 0.0:  # the stick law: D = F_n H(|ξ|), ξ = u dt
+            u = v3.scale(dt, u)
+            s = v3.norm(u)
+            phi, psi = stick_functions(s, coef, kap)
+            total += fn * stick_potential(s, coef, kap)
+            gs = fn
+            c = fn
+        else:
+            s = v3.norm(u)
+            _, phi, psi = slip_functions(s, nu)
+            total += mufn * dt * slip_potential(s, nu)
+            gs = mufn
+            c = mufn / dt
         uca = v3.dot(u, ca)
         ucb = v3.dot(u, cb)
-        c = mufn / dt
         if ia >= 0:
-            grad_out[ia] += mufn * phi * uca
+            grad_out[ia] += gs * phi * uca
             hess_out[p, 0, 0] = c * (phi * v3.dot(ca, ca) + psi * uca * uca)
         if ib >= 0:
-            grad_out[ib] += mufn * phi * ucb
+            grad_out[ib] += gs * phi * ucb
             hess_out[p, 1, 1] = c * (phi * v3.dot(cb, cb) + psi * ucb * ucb)
         if ia >= 0 and ib >= 0:
             hab = c * (phi * v3.dot(ca, cb) + psi * uca * ucb)
@@ -308,7 +356,7 @@ class SpinFriction:
     Attributes
     ----------
     theta_dofs : (k, 2) int64, the unknowns ``θ_a, θ_b`` of each pair.
-    record : (k, 10) float64, each pair's ``spin_out`` record (see :func:`surface_friction_pair`).
+    record : (k, RECORD_SIZE) float64, each pair's ``spin_out`` record (see :func:`surface_friction_pair`).
     nu : slip tolerance ν (m/s).
     """
 

@@ -19,6 +19,7 @@ from knotsim.validation.knots import overhand_tightening
 from knotsim.validation.obstacles import capstan, euler_pinned, floor_friction, michell
 from knotsim.validation.rolling import rolling_cases
 from knotsim.validation.single_rod import single_rod_bend
+from knotsim.validation.stick import stick_cases
 
 
 def _row(case, quantity, value, reference, error, tolerance, wall):
@@ -75,7 +76,7 @@ def helix(quick: bool = False) -> list[dict]:
 
 #: Registered cases: name -> function(quick) -> rows.
 CASES: dict[str, Callable[[bool], list[dict]]] = {"cantilever": cantilever, "helix": helix,
-                                                  "contact": contact_cases, "rolling": rolling_cases,
+                                                  "contact": contact_cases, "rolling": rolling_cases, "stick": stick_cases,
                                                   "overhand_tightening": overhand_tightening,
                                                   "single_rod_bend": single_rod_bend,
                                                   "bends": bends, "capstan": capstan,

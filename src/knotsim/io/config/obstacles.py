@@ -17,11 +17,12 @@ from knotsim._util.fields import (
 from knotsim.errors import ConfigError
 
 _COMMON = ("type", "name", "rods", "mu", "delta", "nu", "stiffness", "stiffness_scaler", "penetration_limit",
-           "velocity", "waypoints", "angular_velocity", "pivot", "friction_model")
+           "velocity", "waypoints", "angular_velocity", "pivot", "friction_model", "stick_distance", "mu_static")
 _SPIN = ("spin_inertia", "initial_spin")
 _GEOMETRY = {"plane": ("point", "normal"), "capsule": ("a", "b", "radius") + _SPIN,
              "sphere": ("center", "radius", "spin_axis") + _SPIN}
-_NUMBERS = ("mu", "delta", "nu", "stiffness", "stiffness_scaler", "penetration_limit", "radius", "spin_inertia")
+_NUMBERS = ("mu", "delta", "nu", "stiffness", "stiffness_scaler", "penetration_limit", "radius", "spin_inertia",
+            "stick_distance", "mu_static")
 _VECTORS = ("point", "normal", "a", "b", "center", "angular_velocity", "pivot", "spin_axis", "initial_spin")
 #: Names an obstacle may not take (interactions and log columns of their own).
 _RESERVED = ("contact", "elastic", "kinetic", "gravity", "time", "dt")
