@@ -155,3 +155,13 @@ def test_input_errors_name_the_field():
         ks.Plane(m, "f", mu=0.3, stick_distance=1e-5, friction_model="centreline")
     with pytest.raises(ConfigError, match=r"obstacles\.c\.stick_distance.*free-spinning"):
         ks.Capsule(m, "c", mu=0.3, stick_distance=1e-5, spin_inertia=1e-3)
+
+
+def test_capstan_at_rest_sticks_then_slides_at_the_kinetic_ratio():
+    """A rope over a post, far end clamped, hanging load rising: it holds more than the kinetic
+    capstan before it slips (at most the static one) and then slides at the kinetic ratio."""
+    from knotsim.validation.stick import capstan_hold
+
+    r = capstan_hold(ramp=0.5)
+    assert r["sliding"] == pytest.approx(r["kinetic"], rel=0.02)
+    assert r["kinetic"] < r["peak"] <= 1.01 * r["static"]
