@@ -87,6 +87,19 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "runaway_speed": ("m/s", "two-rope bend, force mode: pulled end faster than this = slipping"),
     "slip_draw_in_rate": ("-", "two-rope bend: tails drawn in faster than this x pull_speed = slipping"),
     "slip_hold": ("s", "two-rope bend: how long the fast draw-in must last to count as a slip"),
+    "contact.stick_distance": ("m", "elastic-stick friction: spring stretch at the kinetic limit (static friction "
+                                    "that holds; none: the smooth law of contact.nu)"),
+    "contact.mu_static": ("-", "elastic-stick friction: static coefficient, at least mu (none: mu)"),
+    "set_tension": ("N", "knot security: force on each of the three loaded ends while the knot is set"),
+    "set_ramp": ("s", "knot security: time over which the set tension grows from 0"),
+    "set_hold": ("s", "knot security: time the set tension is held"),
+    "hold_tension": ("N", "knot security: force left on the three ends after relaxing (at most set_tension)"),
+    "relax_time": ("s", "knot security: time over which the ends go from the set to the hold tension"),
+    "load": ("text", "knot security: 'ramp' (force at load_rate until run-away), 'hold' (hold_load for "
+                     "load_time) or 'slide' (the end moves at pull_speed)"),
+    "load_rate": ("N/s", "knot security, ramp: growth rate of the load"),
+    "hold_load": ("N", "knot security, hold: the load held"),
+    "load_time": ("s", "knot security: length of the load stage (0: 20 s, hold 10 s after its rise)"),
 }
 
 #: Allowed range of numeric protocol parameters, checked by :func:`check_param_ranges` before
@@ -100,7 +113,8 @@ PARAM_RANGES: dict[str, str] = {
     "mean_window": ">0", "hold_time": ">=0", "hold_nodes": "int>=1", "pre_pull": ">=0",
     "pre_pull_speed": ">0", "transient": ">=0", "loose_factor": ">0", "loose_bend_radius": ">0", "pull_length": ">0",
     "pre_tighten": ">=0", "pre_tighten_speed": ">0", "force_rate": ">0", "runaway_speed": ">0",
-    "slip_draw_in_rate": ">0", "slip_hold": ">=0",
+    "slip_draw_in_rate": ">0", "slip_hold": ">=0", "set_tension": ">0", "set_ramp": ">0", "set_hold": ">=0",
+    "hold_tension": ">=0", "relax_time": ">0", "load_rate": ">0", "hold_load": ">0", "load_time": ">=0",
 }
 _RANGE_TEXT = {">0": "a positive number", ">=0": "a non-negative number", "int>=1": "a positive integer",
                "int>=3": "an integer >= 3", "poisson": "a number in (-1, 0.5]"}

@@ -5,13 +5,14 @@ from __future__ import annotations
 
 from knotsim.errors import ConfigError
 from knotsim.protocols.base import LoadingProtocol
+from knotsim.protocols.knot_security import KnotSecurity
 from knotsim.protocols.overhand_pull import OverhandPull
 from knotsim.protocols.single_rod_bend import SingleRodBend
 from knotsim.protocols.two_rope_bend import TwoRopeBend
 
 __all__ = ["default_protocol", "get_protocol", "protocols"]
 
-_REGISTRY: dict[str, LoadingProtocol] = {p.name: p for p in (OverhandPull(), SingleRodBend(), TwoRopeBend())}
+_REGISTRY: dict[str, LoadingProtocol] = {p.name: p for p in (OverhandPull(), SingleRodBend(), TwoRopeBend(), KnotSecurity())}
 
 
 def protocols() -> dict[str, LoadingProtocol]:

@@ -1,0 +1,271 @@
+"""Protocol ``knot-security``: set a bend, then load it as it is used (docs/physics.md §4.4).
+
+A knot's strength is a property of how it was set as much as of the knot. This protocol makes the
+setting explicit and loads the set knot in one of three ways. Two-rope bends (the knot's ``held``
+and ``pulled`` hints name the standing ends; the other two ends are the tails).
+
+Stages (times from the end of any ``settle_time``):
+
+1. **set** (``set_ramp + set_hold`` s): the standing end of rope A is clamped (two end nodes and
+   their edge angle, the whole run); the other three ends are pulled outwards along their own end
+   directions by a force that grows from 0 to ``set_tension`` (N) over ``set_ramp`` s and stays there
+   for ``set_hold`` s (force control, twist free), so the knot draws itself tight under a known
+   tension instead of a prescribed displacement;
+2. **relax** (``relax_time`` s): the three forces fall linearly to ``hold_tension`` (N);
+3. **load**: the tails are let go; the standing end of rope B is loaded along the axis from the
+   clamped end to it, in the mode ``load``:
+
+   * ``"ramp"``: a force growing from ``hold_tension`` at ``load_rate`` (N/s) until the end runs away
+     (its speed above ``runaway_speed`` for 0.5 s after the ``transient``): the **slip load** is the
+     force at the onset;
+   * ``"hold"``: a force rising to ``hold_load`` (N) over ``transient`` s, then held: the drift of
+     the pulled end and of the tails over the rest of the stage says whether the knot holds;
+   * ``"slide"``: the end moves at ``pull_speed`` (m/s): the mean force over the second half is the
+     **sliding resistance**.
+
+With ``contact.stick_distance`` (the default here: 10 µm) the friction holds below its limit without
+creep (docs/physics.md §3.6), so a knot below its slip load does not move; ``contact.mu_static``
+sets the static coefficient (default: ``mu``).
+
+Log columns: ``F`` (N, the force on the loaded standing end along the axis: the applied one in the
+force modes, the reaction in ``"slide"``), ``F_norm = F h²/EI``, ``u_pull`` (m, its displacement
+along the axis), ``tail_a``, ``tail_b`` (m, tail lengths outside the knot, as in
+:mod:`knotsim.protocols.two_rope_bend`), ``rope_gap`` (m) and ``in_knot`` (m): the rope in the knot,
+the total length less the four ends' lengths outside it (each measured like a tail; 0 once the ropes
+are apart).
+
+Metrics: ``set_tension`` (N) and its ``F h²/EI``; ``in_knot_set`` (m, at the end of the set stage)
+and ``in_knot_load`` (at the start of the load); ``set_creep`` (m/s, the rate at which the rope in the
+knot still changed over the last 20 % of the set hold: a knot that is still drawing itself in was
+not set); then by mode ``slip_load`` (N), ``slip_load_norm`` and ``slip_onset`` (ramp),
+``drift_pull``, ``drift_tails`` (m over the hold after its rise) and their rates (m/s) (hold),
+``sliding_resistance`` (N) and its norm (slide). Outcomes as for ``two-rope-bend``: ``untied``
+(the ropes apart and unlinked), ``slipped`` (the loaded end ran away), ``undecided`` (a load stage
+too short to tell), else held.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from knotsim.errors import ConfigError
+from knotsim.protocols.base import RunContext, end_group_nodes, unit
+from knotsim.protocols.geometry import default_ends, parse_end
+from knotsim.protocols.metrics import moving_average, sustained_onset, window_mean
+from knotsim.protocols.timeline import measured_log, pull_start
+from knotsim.protocols.two_rope_bend import (
+    APART_RADII,
+    TwoRopeBend,
+    bend_names,
+    ends_interleaved,
+    free_tail_ends,
+    rope_gap,
+    tail_lengths,
+)
+
+__all__ = ["KnotSecurity"]
+
+LOAD_MODES = ("ramp", "hold", "slide")
+
+
+def _positive(params, key: str, allow_zero: bool = False) -> float:
+    v = params[key]
+    ok = isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) and (v >= 0 if allow_zero
+                                                                                          else v > 0)
+    if not ok:
+        raise ConfigError(key, f"must be a {'non-negative' if allow_zero else 'positive'} number, got {v!r}")
+    return float(v)
+
+
+class KnotSecurity(TwoRopeBend):
+    name = "knot-security"
+    description = "Set a bend under a known tension, relax it, then load a standing end (ramp, hold or slide)"
+    kinds = ()
+    default_knot = "reef_bend"
+    defaults = {
+        "mu": 0.3,
+        "dt": 2e-3,
+        "contact.stick_distance": 1e-5,  # m: the elastic-stick law, static friction that holds
+        "held_end": "",
+        "pulled_end": "",
+        "set_tension": 0.01,   # N on each of the three loaded ends while setting
+        "set_ramp": 1.0,       # s
+        "set_hold": 2.0,       # s
+        "hold_tension": 0.001,  # N left on the three ends after relaxing
+        "relax_time": 0.5,     # s
+        "load": "ramp",
+        "load_rate": 0.002,    # N/s (ramp)
+        "hold_load": 0.005,    # N (hold)
+        "load_time": 0.0,      # s of load stage (0: 20 s for ramp, 10 s + transient for hold, 20 s for slide)
+        "pull_speed": 0.01,    # m/s (slide)
+        "runaway_speed": 0.05,  # m/s: the loaded end faster than this for 0.5 s = slipping
+        "transient": 1.0,      # s at the start of the load stage left out of the slip detection
+        "output_interval": 0.1,
+    }
+    quick = {"n_nodes": 101, "dt": 5e-3, "set_ramp": 0.3, "set_hold": 0.5, "relax_time": 0.2, "load_time": 3.0,
+             "load_rate": 0.02, "output_interval": 0.5, "transient": 0.3}
+
+    def setup(self, ctx: RunContext) -> None:
+        geo = ctx.geometry
+        p = ctx.params
+        if len(geo.ropes) != 2:
+            raise ConfigError("knot", f"knot-security loads bends of two ropes; {geo.name!r} has {len(geo.ropes)}")
+        mode = p["load"]
+        if mode not in LOAD_MODES:
+            raise ConfigError("load", f"must be one of {', '.join(LOAD_MODES)}, got {mode!r}")
+        t_set_ramp = _positive(p, "set_ramp")
+        t_set = t_set_ramp + _positive(p, "set_hold", allow_zero=True)
+        t_relax = _positive(p, "relax_time")
+        t_set_force = _positive(p, "set_tension")
+        t_hold = _positive(p, "hold_tension", allow_zero=True)
+        if t_hold > t_set_force:
+            raise ConfigError("hold_tension", f"must be at most set_tension = {t_set_force:g} N, got {t_hold:g}")
+        hint_held, hint_pulled = default_ends(geo)
+        he, pe = p["held_end"], p["pulled_end"]
+        held_list = (parse_end(he, geo, "held_end"),) if he else hint_held
+        pulled_list = (parse_end(pe, geo, "pulled_end"),) if pe else hint_pulled
+        if not held_list or not pulled_list:
+            raise ConfigError("knot", f"knot {geo.name!r} has no [loading] held/pulled hints; give held_end and "
+                                      "pulled_end (ROPE:NODE)")
+        held, pulled = held_list[0], pulled_list[0]
+        if held.rope == pulled.rope:
+            raise ConfigError("knot", "the held and pulled ends must be on different ropes")
+        axis = unit(geo.ropes[pulled.rope][pulled.node] - geo.ropes[held.rope][held.node])
+        t_pre = t_set + t_relax
+        ctx.data.update(axis=axis, held=held, pulled=pulled, held_end=0 if held.node == 0 else 1,
+                        pulled_end=0 if pulled.node == 0 else 1, t_pre=t_pre, t_set=t_set)
+
+        def outward(rope: int, node: int):
+            x = geo.ropes[rope]
+            inner = min(5, len(x) - 1)
+            return unit(x[node] - x[inner if node == 0 else len(x) - 1 - inner])
+
+        ctx.add_bc("clamp", "held", rod=held.rope, nodes=end_group_nodes(held.node, len(geo.ropes[held.rope])))
+        loaded = [("pull", pulled.rope, pulled.node)]
+        for name, (rope, end) in zip(("tail_a", "tail_b"), free_tail_ends(held, pulled), strict=True):
+            loaded.append((name, rope, 0 if end == 0 else len(geo.ropes[rope]) - 1))
+        for name, rope, node in loaded:
+            nodes = end_group_nodes(node, len(geo.ropes[rope]))
+            d = outward(rope, node)
+            ctx.add_bc("force", f"set_{name}", rod=rope, nodes=nodes, stop=t_set,
+                       ramp={"from": [0.0, 0.0, 0.0], "to": list(t_set_force * d), "duration": t_set_ramp})
+            ctx.add_bc("force", f"relax_{name}", rod=rope, nodes=nodes, start=t_set, stop=t_pre,
+                       ramp={"from": list(t_set_force * d), "to": list(t_hold * d), "duration": t_relax})
+        pull_nodes = end_group_nodes(pulled.node, len(geo.ropes[pulled.rope]))
+        if mode == "ramp":
+            ctx.add_bc("force", "load", rod=pulled.rope, nodes=pull_nodes, start=t_pre,
+                       ramp={"from": list(t_hold * axis), "rate": list(_positive(p, "load_rate") * axis)})
+        elif mode == "hold":
+            rise = _positive(p, "transient")
+            ctx.add_bc("force", "load", rod=pulled.rope, nodes=pull_nodes, start=t_pre,
+                       ramp={"from": list(t_hold * axis), "to": list(_positive(p, "hold_load") * axis),
+                             "duration": rise})
+        else:
+            ctx.add_bc("move", "load", rod=pulled.rope, nodes=pull_nodes, start=t_pre,
+                       velocity=list(_positive(p, "pull_speed") * axis))
+        ctx.data["pull_local"] = (pulled.rope, pull_nodes)
+        ctx.data["x_pull0"] = np.mean([geo.ropes[pulled.rope][i] for i in pull_nodes], axis=0)
+        ctx.data["free_ends"] = free_tail_ends(held, pulled)
+        ctx.data["all_ends"] = [(held.rope, 0 if held.node == 0 else 1), (pulled.rope, 0 if pulled.node == 0 else 1),
+                                *ctx.data["free_ends"]]
+        ctx.data["ends_interleaved"] = ends_interleaved(geo.ropes, [(held.rope, held.node), (pulled.rope, pulled.node)])
+
+    def duration(self, ctx: RunContext) -> float:
+        """Set, relax and the load stage (``load_time``, or 20 s for ``"ramp"`` and ``"slide"`` and
+        10 s after the rise for ``"hold"``)."""
+        p = ctx.params
+        load = float(p["load_time"])
+        if not load > 0:
+            load = 10.0 + float(p["transient"]) if p["load"] == "hold" else 20.0
+        return float(ctx.data["t_pre"]) + load
+
+    def record(self, ctx: RunContext, q, t, reactions) -> dict:
+        m = ctx.model
+        p = ctx.params
+        axis = ctx.data["axis"]
+        x = m.node_positions(q)
+        u = float(np.dot(x[ctx.data["pull_nodes"]].mean(axis=0) - ctx.data["x_pull0"], axis))
+        t_load = float(t) - pull_start(ctx)
+        t_hold = float(p["hold_tension"])
+        if t_load < 0:
+            f = math.nan  # setting and relaxing: three ends loaded along their own directions
+        elif p["load"] == "ramp":
+            f = t_hold + float(p["load_rate"]) * t_load
+        elif p["load"] == "hold":
+            f = t_hold + (float(p["hold_load"]) - t_hold) * min(t_load / float(p["transient"]), 1.0)
+        else:
+            f = float(np.dot(reactions["load"][:3], axis)) if "load" in reactions else math.nan
+        ropes = [x[m.rod_node_start[r]:m.rod_node_start[r + 1]] for r in range(m.n_rods)]
+        delta = float(p.contact.get("delta", 5e-4))
+        ta, tb = tail_lengths(ropes, ctx.data["free_ends"], ctx.radius, delta)
+        outside = tail_lengths(ropes, ctx.data["all_ends"], ctx.radius, delta)
+        total = sum(float(np.sum(np.linalg.norm(np.diff(r, axis=0), axis=1))) for r in ropes)
+        return {"F": f, "F_norm": f * ctx.radius**2 / ctx.EI, "u_pull": u, "tail_a": ta, "tail_b": tb,
+                "rope_gap": rope_gap(ropes), "in_knot": max(total - float(sum(outside)), 0.0)}
+
+    def metrics(self, ctx: RunContext, log) -> dict:
+        p = ctx.params
+        data = getattr(ctx, "data", {})
+        t0 = pull_start(ctx)
+        t_set = float(data.get("t_settle", 0.0)) + float(data.get("t_set", 0.0))
+        t_all = np.asarray(log["time"], float)
+        norm = ctx.radius**2 / ctx.EI
+        out: dict = {"load": p["load"], "set_tension": float(p["set_tension"]),
+                     "set_tension_norm": float(p["set_tension"]) * norm, "hold_tension": float(p["hold_tension"])}
+        if "in_knot" in log.columns and t_all.size:
+            ink = np.asarray(log["in_knot"], float)
+            i_set = int(np.searchsorted(t_all, t_set - 1e-9))
+            out["in_knot_set"] = float(ink[min(i_set, ink.size - 1)])
+            i_load = int(np.searchsorted(t_all, t0 - 1e-9))
+            out["in_knot_load"] = float(ink[min(i_load, ink.size - 1)])
+            tail = (t_all >= t_set - 0.2 * float(p["set_hold"])) & (t_all <= t_set)
+            out["set_creep"] = (float(np.polyfit(t_all[tail], ink[tail], 1)[0])
+                                if np.count_nonzero(tail) >= 3 else None)
+        out.update(bend_names(ctx))
+        if "rope_gap" in log.columns and t_all.size:
+            gap = float(log["rope_gap"].iloc[-1])
+            out["rope_gap_final"] = gap
+            out["ropes_apart"] = bool(gap > APART_RADII * ctx.radius)
+        log = measured_log(ctx, log)
+        if len(log) < 2:
+            out["decidable"] = False
+            return out
+        t = np.asarray(log["time"], float)
+        t_skip = float(p["transient"])
+        after = t >= t_skip
+        out["load_time"] = float(t[-1])
+        if p["load"] == "slide":
+            half = t >= 0.5 * t[-1]
+            out["sliding_resistance"] = window_mean(log, "F", float(t[half][0]) if half.any() else None)
+            out["sliding_resistance_norm"] = out["sliding_resistance"] * norm
+            out["slip_onset"] = None
+            out["decidable"] = bool(t[-1] > t_skip)
+            return out
+        u = moving_average(log, "u_pull", 0.5)
+        speed = np.gradient(u, t) if len(t) > 2 else np.zeros_like(u)
+        k = sustained_onset(t, after & (speed > float(p["runaway_speed"])), 0.5)
+        f = np.asarray(log["F"], float)
+        out["slip_onset"] = (None if k is None else
+                             {"time": float(t[k]), "force": float(f[k]), "criterion": "runaway"})
+        out["decidable"] = bool(t[-1] - t_skip >= 0.5)
+        if p["load"] == "ramp":
+            out["slip_load"] = float(f[k]) if k is not None else None
+            out["slip_load_norm"] = float(f[k]) * norm if k is not None else None
+            out["largest_load_held"] = float(f[k] if k is not None else f[-1])
+        else:
+            win = after & (t <= (t[k] if k is not None else t[-1]))
+            if np.count_nonzero(win) >= 2:
+                tw = t[win]
+                up = np.asarray(log["u_pull"], float)[win]
+                tails = (np.asarray(log["tail_a"], float) + np.asarray(log["tail_b"], float))[win]
+                span = float(tw[-1] - tw[0])
+                out["hold_window"] = span
+                out["drift_pull"] = float(up[-1] - up[0])
+                out["drift_tails"] = float(tails[0] - tails[-1])
+                out["drift_pull_rate"] = float(np.polyfit(tw, up, 1)[0]) if span > 0 else None
+                out["drift_tails_rate"] = float(-np.polyfit(tw, tails, 1)[0]) if span > 0 else None
+            out["hold_load"] = float(p["hold_load"])
+            out["hold_load_norm"] = float(p["hold_load"]) * norm
+        return out

@@ -1,0 +1,122 @@
+"""The ``knot-security`` protocol: its stages as boundary conditions, its metrics on known logs, its
+input checks, and a short run end to end."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import knotsim as ks
+from knotsim.errors import ConfigError
+from knotsim.protocols.knot_security import KnotSecurity
+from knotsim.protocols.pipeline import build_protocol_run
+
+
+def _spec(**overrides):
+    _, ctx, spec, _ = build_protocol_run("knot-security", "reef_bend", overrides=overrides, quick=True)
+    return ctx, spec
+
+
+def test_stages_are_force_groups_with_their_windows():
+    ctx, spec = _spec(set_tension=0.02, hold_tension=0.002, set_ramp=0.4, set_hold=0.6, relax_time=0.2)
+    bcs = {b["name"]: b for b in spec.config["bc"]} if hasattr(spec, "config") else {b["name"]: b for b in ctx.bc}
+    assert bcs["held"]["type"] == "clamp"
+    for end in ("pull", "tail_a", "tail_b"):
+        s, r = bcs[f"set_{end}"], bcs[f"relax_{end}"]
+        assert s["stop"] == pytest.approx(1.0) and r["start"] == pytest.approx(1.0) and r["stop"] == pytest.approx(1.2)
+        assert np.linalg.norm(s["ramp"]["to"]) == pytest.approx(0.02)
+        assert np.linalg.norm(r["ramp"]["to"]) == pytest.approx(0.002)
+        np.testing.assert_allclose(r["ramp"]["from"], s["ramp"]["to"])
+    load = bcs["load"]
+    assert load["start"] == pytest.approx(1.2) and load["type"] == "force"
+    assert np.linalg.norm(load["ramp"]["from"]) == pytest.approx(0.002)
+    np.testing.assert_allclose(np.asarray(load["ramp"]["rate"]) / np.linalg.norm(load["ramp"]["rate"]),
+                               ctx.data["axis"])
+
+
+def test_slide_and_hold_modes():
+    _, spec = _spec(load="slide", pull_speed=0.02)
+    ctx, _ = _spec(load="slide", pull_speed=0.02)
+    load = {b["name"]: b for b in ctx.bc}["load"]
+    assert load["type"] == "move" and np.linalg.norm(load["velocity"]) == pytest.approx(0.02)
+    ctx, _ = _spec(load="hold", hold_load=0.004, transient=0.25)
+    load = {b["name"]: b for b in ctx.bc}["load"]
+    assert np.linalg.norm(load["ramp"]["to"]) == pytest.approx(0.004) and load["ramp"]["duration"] == 0.25
+
+
+@pytest.mark.parametrize("key, value, field", [("load", "pulse", "load"), ("hold_tension", 0.5, "hold_tension"),
+                                               ("set_tension", -1.0, "set_tension"), ("relax_time", 0.0, "relax_time")])
+def test_bad_inputs_name_the_field(key, value, field):
+    with pytest.raises(ConfigError, match=rf"^{field}:"):
+        _spec(**{key: value})
+
+
+def test_needs_two_ropes():
+    with pytest.raises(ConfigError, match="knot"):
+        build_protocol_run("knot-security", "overhand_n1", quick=True)
+
+
+class _Ctx:
+    """Enough of a RunContext for :meth:`KnotSecurity.metrics`."""
+
+    def __init__(self, **params):
+        base = dict(KnotSecurity.defaults)
+        base.update(params)
+        self.params = type("P", (dict,), {"contact": {}})(base)
+        self.data = {"t_pre": 1.5, "t_set": 1.0, "t_settle": 0.0}
+        self.radius = 2e-3
+        self.EI = 2.26e-6
+        self.geometry = None
+
+
+def _log(t_slip=None, rate=0.002, hold=0.001, mode="ramp", hold_load=0.005, drift=0.0):
+    t = np.arange(0.0, 12.0, 0.01)
+    t_load = t - 1.5
+    if mode == "ramp":
+        f = np.where(t_load >= 0, hold + rate * np.maximum(t_load, 0), np.nan)
+    else:
+        f = np.where(t_load >= 0, hold + (hold_load - hold) * np.clip(t_load / 1.0, 0, 1), np.nan)
+    u = drift * np.maximum(t_load, 0)
+    if t_slip is not None:
+        u = u + np.where(t_load > t_slip, 0.2 * (t_load - t_slip), 0.0)
+    in_knot = 0.3 - 0.05 * np.minimum(t, 1.0) + 0.0 * t
+    return pd.DataFrame({"time": t, "F": f, "F_norm": f * 4e-6 / 2.26e-6, "u_pull": u, "tail_a": 0.3 - u / 2,
+                         "tail_b": 0.3 - u / 2, "rope_gap": np.full(t.size, 4e-3), "in_knot": in_knot})
+
+
+def test_ramp_metrics_find_the_slip_load():
+    m = KnotSecurity().metrics(_Ctx(), _log(t_slip=4.0))
+    onset = m["slip_onset"]["time"]
+    assert abs(onset - 4.0) <= 0.25  # the centred 0.5 s average of the displacement smears the corner
+    assert m["slip_load"] == pytest.approx(0.001 + 0.002 * onset)
+    assert m["slip_load_norm"] == pytest.approx(m["slip_load"] * 4e-6 / 2.26e-6)
+    assert m["in_knot_set"] == pytest.approx(0.25, abs=1e-3)
+    assert m["set_creep"] == pytest.approx(-0.05, rel=1e-6)  # still drawing in over the end of the set hold
+    held = KnotSecurity().metrics(_Ctx(), _log())
+    assert held["slip_onset"] is None and held["slip_load"] is None
+    assert held["largest_load_held"] == pytest.approx(0.001 + 0.002 * 10.49, rel=1e-3)
+
+
+def test_hold_metrics_measure_the_drift():
+    m = KnotSecurity().metrics(_Ctx(load="hold"), _log(mode="hold", drift=1e-5))
+    assert m["slip_onset"] is None
+    assert m["drift_pull_rate"] == pytest.approx(1e-5, rel=1e-6)
+    assert m["drift_tails_rate"] == pytest.approx(1e-5, rel=1e-6)
+    assert m["hold_window"] == pytest.approx(10.49 - 1.0, abs=0.02)
+
+
+def test_short_run_end_to_end():
+    """A short quick run: it sets, relaxes and loads the reef bend and reports the metrics."""
+    res = ks.run_protocol("knot-security", "reef_bend", quick=True,
+                          overrides={"set_ramp": 0.2, "set_hold": 0.2, "relax_time": 0.1, "load_time": 0.6,
+                                     "transient": 0.1})
+    m = res["metrics"]
+    assert res["outcome"] in ("held", "slipped", "untied", "undecided")
+    assert m["set_tension"] == 0.01 and math.isfinite(m["in_knot_set"]) and m["in_knot_set"] > 0
+    assert ("slip_load" in m) and m["largest_load_held"] >= 0.001
+    log = res.log
+    assert {"F", "u_pull", "in_knot", "tail_a"} <= set(log.columns)
+    assert np.isnan(log["F"].iloc[0]) and np.isfinite(log["F"].iloc[-1])
