@@ -58,6 +58,7 @@ _LAZY = {
     "tie_from_straight": "knotsim.knots.tying", "list_tying_sequences": "knotsim.knots.tying",
     # protocols and studies
     "run_protocol": "knotsim.protocols", "build_protocol_run": "knotsim.protocols",
+    "critical_friction": "knotsim.study.critical", "CriticalFriction": "knotsim.study.critical",
     "ProtocolResult": "knotsim.protocols",
     "run_study": "knotsim.study", "load_study": "knotsim.study", "write_report": "knotsim.study",
 }

@@ -6,6 +6,7 @@
     knotsim run [CONFIG.toml] --from RUN_DIR [-o OUTDIR] [--duration S]
     knotsim pull KNOT | --geometry PATH -o OUTDIR [--protocol P] [--set K=V] [--quick] [--save-config F]
     knotsim tie SEQUENCE -o OUTDIR | --list
+    knotsim critical-mu KNOT --load N [--mu-low M] [--mu-high M] [--tol T] [--set K=V] [--quick]
     knotsim validate [CASE ...] [--quick] [--json-only]
     knotsim warmup [--serial]
     knotsim plot RUN_DIR [-o FILE]
@@ -19,7 +20,7 @@ Exit codes: 0 success; 1 validation failures; 2 bad input (:class:`~knotsim.erro
 
 Modules: :mod:`~knotsim.cli.commands` (the main group; ``run``, ``validate``, ``warmup``, ``plot``,
 ``export-vtk``, ``render``), :mod:`~knotsim.cli.protocols` (``knots``, ``pull``, ``tie``),
-:mod:`~knotsim.cli.study` (``study``, ``report``, ``animate``), :mod:`~knotsim.cli.view` (``view``),
+:mod:`~knotsim.cli.study` (``study``, ``report``, ``animate``, ``critical-mu``), :mod:`~knotsim.cli.view` (``view``),
 :mod:`~knotsim.cli.errors` (exit codes, one-line errors) and :mod:`~knotsim.cli.output` (output
 directories, the compile notice). ``python -m knotsim.cli`` runs the same command.
 

@@ -182,3 +182,43 @@ def animate(run_dir: Path, case_id: str | None, out: Path, fps: float, every: in
         v = (elev, azim)
     path = animate_run(run_dir, out, fps=fps, every=every, size=(w, h), backend=backend, view=v)
     click.echo(str(path))
+
+
+@click.command("critical-mu")
+@click.argument("knot")
+@click.option("--load", "load", required=True, type=float, help="Load held on the standing end, N.")
+@click.option("--mu-low", type=float, default=0.05, show_default=True, help="Bottom of the bracket searched.")
+@click.option("--mu-high", type=float, default=0.8, show_default=True, help="Top of the bracket searched.")
+@click.option("--tol", type=float, default=0.02, show_default=True, help="Width of the final bracket in mu.")
+@click.option("--drift-limit", type=float, default=1e-3, show_default=True,
+              help="m; a hold that moved the loaded end this far counts as slipping.")
+@click.option("--set", "assignments", multiple=True, metavar="KEY=VALUE",
+              help="A knot-security parameter (repeatable), e.g. --set set_tension=0.02.")
+@click.option("--quick", is_flag=True, help="The protocol's coarse, short settings.")
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+@_exit_codes
+def critical_mu(knot: str, load: float, mu_low: float, mu_high: float, tol: float, drift_limit: float,
+                assignments: tuple[str, ...], quick: bool, as_json: bool):
+    """The least friction coefficient at which KNOT, set by the knot-security protocol, holds LOAD
+    (bisection over hold runs; docs/protocols.md)."""
+    import json
+
+    from knotsim.protocols.params import parse_assignments
+    from knotsim.study.critical import critical_friction
+
+    res = critical_friction(knot, load, mu_low=mu_low, mu_high=mu_high, tol=tol, drift_limit=drift_limit,
+                            overrides=parse_assignments(assignments), quick=quick)
+    if as_json:
+        click.echo(json.dumps({"knot": res.knot, "load": res.load, "mu_slip": res.mu_slip, "mu_hold": res.mu_hold,
+                               "mu_c": res.mu_c, "runs": res.runs}, default=float))
+        return
+    if res.mu_slip is None:
+        click.echo(f"{knot}: holds {load:g} N already at mu = {res.mu_hold:g} (the bottom of the bracket)")
+    elif res.mu_hold is None:
+        click.echo(f"{knot}: slips under {load:g} N even at mu = {mu_high:g} (the top of the bracket)")
+    else:
+        click.echo(f"{knot}: mu_c = {res.mu_c:.4g} (slips at {res.mu_slip:.4g}, holds at {res.mu_hold:.4g}) "
+                   f"under {load:g} N")
+    for r in res.runs:
+        click.echo(f"  mu = {r['mu']:.4g}: {'holds' if r['holds'] else 'slips'} ({r['outcome']}, drift "
+                   f"{r['drift_pull'] if r['drift_pull'] is not None else float('nan'):.3g} m)")
