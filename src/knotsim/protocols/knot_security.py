@@ -38,7 +38,9 @@ Metrics: ``set_tension`` (N) and its ``F h²/EI``; ``in_knot_set`` (m, at the en
 and ``in_knot_load`` (at the start of the load); ``set_creep`` (m/s, the rate at which the rope in the
 knot still changed over the last 20 % of the set hold: a knot that is still drawing itself in was
 not set); then by mode ``slip_load`` (N), ``slip_load_norm`` and ``slip_onset`` (ramp),
-``drift_pull``, ``drift_tails`` (m over the hold after its rise) and their rates (m/s) (hold),
+``drift_pull``, ``drift_tails`` (m over the hold after its rise) and their rates (m/s), and
+``drift_pull_late`` with its rate over the second half of the hold (hold; the tail lengths move in
+steps of one edge length, as a node comes within or leaves the contact distance of the other rope),
 ``sliding_resistance`` (N) and its norm (slide). Outcomes as for ``two-rope-bend``: ``untied``
 (the ropes apart and unlinked), ``slipped`` (the loaded end ran away), ``undecided`` (a load stage
 too short to tell), else held.
@@ -266,6 +268,12 @@ class KnotSecurity(TwoRopeBend):
                 out["drift_tails"] = float(tails[0] - tails[-1])
                 out["drift_pull_rate"] = float(np.polyfit(tw, up, 1)[0]) if span > 0 else None
                 out["drift_tails_rate"] = float(-np.polyfit(tw, tails, 1)[0]) if span > 0 else None
+                # the second half: after the knot has taken up the load (the first seconds of a hold
+                # are its elastic and frictional adjustment)
+                late = tw >= tw[0] + 0.5 * span
+                if np.count_nonzero(late) >= 2:
+                    out["drift_pull_late"] = float(up[late][-1] - up[late][0])
+                    out["drift_pull_late_rate"] = float(np.polyfit(tw[late], up[late], 1)[0])
             out["hold_load"] = float(p["hold_load"])
             out["hold_load_norm"] = float(p["hold_load"]) * norm
         return out
