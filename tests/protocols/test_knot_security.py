@@ -95,6 +95,9 @@ def test_ramp_metrics_find_the_slip_load():
     assert m["slip_load_norm"] == pytest.approx(m["slip_load"] * 4e-6 / 2.26e-6)
     assert m["in_knot_set"] == pytest.approx(0.25, abs=1e-3)
     assert m["set_creep"] == pytest.approx(-0.05, rel=1e-6)  # still drawing in over the end of the set hold
+    assert m["slip_during_transient"] is False
+    early = KnotSecurity().metrics(_Ctx(), _log(t_slip=0.2))  # running away before the transient ends
+    assert early["slip_during_transient"] is True and early["slip_onset"]["time"] == pytest.approx(1.0, abs=0.01)
     held = KnotSecurity().metrics(_Ctx(), _log())
     assert held["slip_onset"] is None and held["slip_load"] is None
     assert held["largest_load_held"] == pytest.approx(0.001 + 0.002 * 10.49, rel=1e-3)

@@ -37,7 +37,9 @@ are apart).
 Metrics: ``set_tension`` (N) and its ``F h²/EI``; ``in_knot_set`` (m, at the end of the set stage)
 and ``in_knot_load`` (at the start of the load); ``set_creep`` (m/s, the rate at which the rope in the
 knot still changed over the last 20 % of the set hold: a knot that is still drawing itself in was
-not set); then by mode ``slip_load`` (N), ``slip_load_norm`` and ``slip_onset`` (ramp),
+not set); then by mode ``slip_load`` (N), ``slip_load_norm`` and ``slip_onset`` (ramp;
+``slip_during_transient``: the end was already running away when the detection began, after the
+``transient``, so the slip load is at most the value given),
 ``drift_pull``, ``drift_tails`` (m over the hold after its rise) and their rates (m/s), and
 ``drift_pull_late`` with its rate over the second half of the hold (hold; the tail lengths move in
 steps of one edge length, as a node comes within or leaves the contact distance of the other rope),
@@ -252,6 +254,11 @@ class KnotSecurity(TwoRopeBend):
         out["slip_onset"] = (None if k is None else
                              {"time": float(t[k]), "force": float(f[k]), "criterion": "runaway"})
         out["decidable"] = bool(t[-1] - t_skip >= 0.5)
+        # a run-away already under way when the detection starts (at the end of the transient): the
+        # slip load is then at most the load there, not that load
+        out["slip_during_transient"] = bool(k is not None and np.any(~after[:k + 1] & (speed[:k + 1]
+                                                                                      > float(p["runaway_speed"])))
+                                            and k == int(np.argmax(after)))
         if p["load"] == "ramp":
             out["slip_load"] = float(f[k]) if k is not None else None
             out["slip_load_norm"] = float(f[k]) * norm if k is not None else None
