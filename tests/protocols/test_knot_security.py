@@ -125,3 +125,15 @@ def test_short_run_end_to_end():
     log = res.log
     assert {"F", "u_pull", "in_knot", "tail_a"} <= set(log.columns)
     assert np.isnan(log["F"].iloc[0]) and np.isfinite(log["F"].iloc[-1])
+
+
+def test_none_text_unsets_a_contact_setting():
+    """A study (TOML) writes "none" to unset the protocol's stick distance: the smooth law."""
+    from knotsim.runspec import build_run, check_run
+
+    for value, stick in (("none", False), ("None", False), (2e-5, True)):
+        _, _, spec, _ = build_protocol_run("knot-security", "reef_bend", overrides={"contact.stick_distance": value},
+                                           quick=True)
+        sim, _ = build_run(check_run(spec))
+        contact = next(i for i in sim.stepper.interactions if i.name == "contact")
+        assert (contact.stick is not None) is stick

@@ -285,7 +285,9 @@ def resolve_params(defaults: Mapping[str, Any], *layers: Mapping[str, Any] | Non
                 if sub not in known:
                     raise ConfigError(key, f"unknown {table} setting; known: "
                                            f"{', '.join(f'{table}.' + s for s in sorted(known))}")
-                target[sub] = val
+                # a TOML file (a study) cannot write None: the text "none" unsets a setting, as on the
+                # command line (e.g. contact.stick_distance = "none": the smooth friction law)
+                target[sub] = None if isinstance(val, str) and val.strip().lower() == "none" else val
             elif key in values:
                 values[key] = _coerce(key, defaults.get(key), val)
             else:
