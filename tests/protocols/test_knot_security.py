@@ -96,11 +96,17 @@ def test_ramp_metrics_find_the_slip_load():
     assert m["in_knot_set"] == pytest.approx(0.25, abs=1e-3)
     assert m["set_creep"] == pytest.approx(-0.05, rel=1e-6)  # still drawing in over the end of the set hold
     assert m["slip_during_transient"] is False
+    assert m["slow_slip_onset"]["time"] <= onset and m["slow_slip_load"] <= m["slip_load"]
     early = KnotSecurity().metrics(_Ctx(), _log(t_slip=0.2))  # running away before the transient ends
     assert early["slip_during_transient"] is True and early["slip_onset"]["time"] == pytest.approx(1.0, abs=0.01)
     held = KnotSecurity().metrics(_Ctx(), _log())
     assert held["slip_onset"] is None and held["slip_load"] is None
     assert held["largest_load_held"] == pytest.approx(0.001 + 0.002 * 10.49, rel=1e-3)
+
+
+def test_hold_that_drifts_has_slipped():
+    m = KnotSecurity().metrics(_Ctx(load="hold"), _log(mode="hold", drift=4e-3))  # 19 mm over the late half
+    assert m["slip_onset"]["criterion"] == "drift" and KnotSecurity().slipped(None, m)
 
 
 def test_hold_metrics_measure_the_drift():

@@ -37,11 +37,14 @@ are apart).
 Metrics: ``set_tension`` (N) and its ``F h²/EI``; ``in_knot_set`` (m, at the end of the set stage)
 and ``in_knot_load`` (at the start of the load); ``set_creep`` (m/s, the rate at which the rope in the
 knot still changed over the last 20 % of the set hold: a knot that is still drawing itself in was
-not set); then by mode ``slip_load`` (N), ``slip_load_norm`` and ``slip_onset`` (ramp;
+not set); then by mode ``slip_load`` (N), ``slip_load_norm`` and ``slip_onset`` (ramp: the run-away;
+``slow_slip_load`` and ``slow_slip_onset``: the loaded end moving faster than ``slip_speed`` for
+0.5 s, a slow slip that may come well before the run-away;
 ``slip_during_transient``: the end was already running away when the detection began, after the
 ``transient``, so the slip load is at most the value given),
 ``drift_pull``, ``drift_tails`` (m over the hold after its rise) and their rates (m/s), and
-``drift_pull_late`` with its rate over the second half of the hold (hold; the tail lengths move in
+``drift_pull_late`` with its rate over the second half of the hold (hold: a drift beyond
+``hold_drift`` there counts as a slip, criterion ``"drift"``; the tail lengths move in
 steps of one edge length, as a node comes within or leaves the contact distance of the other rope),
 ``sliding_resistance`` (N) and its norm (slide). Outcomes as for ``two-rope-bend``: ``untied``
 (the ropes apart and unlinked), ``slipped`` (the loaded end ran away), ``undecided`` (a load stage
@@ -104,7 +107,10 @@ class KnotSecurity(TwoRopeBend):
         "hold_load": 0.005,    # N (hold)
         "load_time": 0.0,      # s of load stage (0: 20 s for ramp, 10 s + transient for hold, 20 s for slide)
         "pull_speed": 0.01,    # m/s (slide)
-        "runaway_speed": 0.05,  # m/s: the loaded end faster than this for 0.5 s = slipping
+        "runaway_speed": 0.05,  # m/s: the loaded end faster than this for 0.5 s = running away
+        "slip_speed": 0.002,   # m/s: faster than this for 0.5 s = slipping slowly (ramp); the elastic
+                               # stretch of the standing part under the ramp moves it at ~0.4 mm/s
+        "hold_drift": 0.001,   # m: a hold whose loaded end moved further over its second half slipped
         "transient": 1.0,      # s at the start of the load stage left out of the slip detection
         "output_interval": 0.1,
     }
@@ -253,6 +259,9 @@ class KnotSecurity(TwoRopeBend):
         f = np.asarray(log["F"], float)
         out["slip_onset"] = (None if k is None else
                              {"time": float(t[k]), "force": float(f[k]), "criterion": "runaway"})
+        ks = sustained_onset(t, after & (speed > float(p["slip_speed"])), 0.5)
+        out["slow_slip_onset"] = (None if ks is None else
+                                  {"time": float(t[ks]), "force": float(f[ks]), "criterion": "slip_speed"})
         out["decidable"] = bool(t[-1] - t_skip >= 0.5)
         # a run-away already under way when the detection starts (at the end of the transient): the
         # slip load is then at most the load there, not that load
@@ -262,6 +271,8 @@ class KnotSecurity(TwoRopeBend):
         if p["load"] == "ramp":
             out["slip_load"] = float(f[k]) if k is not None else None
             out["slip_load_norm"] = float(f[k]) * norm if k is not None else None
+            out["slow_slip_load"] = float(f[ks]) if ks is not None else None
+            out["slow_slip_load_norm"] = float(f[ks]) * norm if ks is not None else None
             out["largest_load_held"] = float(f[k] if k is not None else f[-1])
         else:
             win = after & (t <= (t[k] if k is not None else t[-1]))
@@ -281,6 +292,9 @@ class KnotSecurity(TwoRopeBend):
                 if np.count_nonzero(late) >= 2:
                     out["drift_pull_late"] = float(up[late][-1] - up[late][0])
                     out["drift_pull_late_rate"] = float(np.polyfit(tw[late], up[late], 1)[0])
+                    if k is None and abs(out["drift_pull_late"]) > float(p["hold_drift"]):
+                        i = int(np.flatnonzero(win)[np.argmax(late)])
+                        out["slip_onset"] = {"time": float(t[i]), "force": float(f[i]), "criterion": "drift"}
             out["hold_load"] = float(p["hold_load"])
             out["hold_load_norm"] = float(p["hold_load"]) * norm
         return out
