@@ -294,6 +294,7 @@ class Obstacle:
         self._xi = np.zeros((k, 3))
         #: the elastic-stick law is on (a stick distance and some friction)
         self.stick = self.stick_distance is not None and self.mu > 0.0
+        self._stick_length = float(self.stick_distance) if self.stick_distance is not None else 0.0
         if self.friction_model == "surface":
             self._stencil, self._weights = node_stencils(m, self.nodes)
             self._blocks = np.zeros((k, STENCIL, STENCIL))
@@ -458,7 +459,7 @@ class Obstacle:
             mem.stick_sliding = np.zeros(k, bool)
         mem.stick_xi = np.ascontiguousarray(mem.stick_xi, dtype=float)
         mem.stick_sliding = np.asarray(mem.stick_sliding, bool)
-        return mem.stick_xi, np.where(mem.stick_sliding, self.mu, self.mu_static), float(self.stick_distance)
+        return mem.stick_xi, np.where(mem.stick_sliding, self.mu, self.mu_static), self._stick_length
 
     def _evaluate_at(self, q) -> None:
         if getattr(self, "_q_eval", None) is None or not np.array_equal(self._q_eval, q):
@@ -568,8 +569,8 @@ class Obstacle:
             _, mu_limit, _ = self._stick_args()
             fn = np.sqrt(np.einsum("ij,ij->i", self._fc, self._fc))
             inside = (fn > 0.0) & (self._gap < self.delta)
-            xi, sliding = return_map(self._xi, self._normal, inside, mu_limit * self.stick_distance / self.mu,
-                                     self.stick_distance)
+            xi, sliding = return_map(self._xi, self._normal, inside, mu_limit * self._stick_length / self.mu,
+                                     self._stick_length)
             self.memory.stick_xi, self.memory.stick_sliding = xi, sliding
             out.update({f"{self.name}_stuck_contacts": int(np.count_nonzero(inside & ~sliding)),
                         f"{self.name}_sliding_contacts": int(np.count_nonzero(sliding))})

@@ -89,7 +89,7 @@ def _positive(params, key: str, allow_zero: bool = False) -> float:
 class KnotSecurity(TwoRopeBend):
     name = "knot-security"
     description = "Set a bend under a known tension, relax it, then load a standing end (ramp, hold or slide)"
-    kinds = ()
+    kinds: tuple[str, ...] = ()
     default_knot = "reef_bend"
     defaults = {
         "mu": 0.3,

@@ -89,7 +89,6 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "slip_hold": ("s", "two-rope bend: how long the fast draw-in must last to count as a slip"),
     "contact.stick_distance": ("m", "elastic-stick friction: spring stretch at the kinetic limit (static friction "
                                     "that holds; none: the smooth law of contact.nu)"),
-    "contact.mu_static": ("-", "elastic-stick friction: static coefficient, at least mu (none: mu)"),
     "set_tension": ("N", "knot security: force on each of the three loaded ends while the knot is set"),
     "set_ramp": ("s", "knot security: time over which the set tension grows from 0"),
     "set_hold": ("s", "knot security: time the set tension is held"),

@@ -227,7 +227,7 @@ def pre_tighten_time(params) -> float:
 class TwoRopeBend(LoadingProtocol):
     name = "two-rope-bend"
     description = "Hold one end of rope A, pull the far end of rope B, tails free (Patil et al. 2020)"
-    kinds = ("bend",)
+    kinds: tuple[str, ...] = ("bend",)
     default_knot = "reef_bend"
     defaults = {
         "mu": 0.3,

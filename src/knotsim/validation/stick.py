@@ -52,7 +52,7 @@ def incline(tan_alpha: float, *, mu: float = 0.2, mu_static: float | None = 0.3,
     from knotsim.solver.options import SolverOptions
 
     c = INCLINE_ROD
-    n, length, h = c["n_nodes"], c["length"], c["radius"]
+    n, length, h = int(c["n_nodes"]), c["length"], c["radius"]
     x = np.zeros((n, 3))
     x[:, 0] = np.linspace(0.0, length, n)
     x[:, 2] = h + 2e-5
