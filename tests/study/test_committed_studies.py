@@ -47,3 +47,11 @@ def _study_friction_model(study_dir: Path) -> str:
     if study_dir.name.endswith(("_surface", "_surface_checks")) or base.get("protocol") == "knot-security":
         return "surface"
     return "centreline"
+
+
+def test_committed_study_report_is_rebuilt(tmp_path):
+    d = ROOT / "docs" / "studies" / "granny_vs_reef_mu"
+    res = CliRunner().invoke(main, ["report", str(d), "-o", str(tmp_path / "report.md")])
+    assert res.exit_code == 0, res.output
+    text = (tmp_path / "report.md").read_text()
+    assert "single_rod_reef" in text and "single_rod_granny" in text
