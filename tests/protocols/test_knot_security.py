@@ -99,6 +99,7 @@ def test_ramp_metrics_find_the_slip_load():
     assert m["slow_slip_onset"]["time"] <= onset and m["slow_slip_load"] <= m["slip_load"]
     early = KnotSecurity().metrics(_Ctx(), _log(t_slip=0.2))  # running away before the transient ends
     assert early["slip_during_transient"] is True and early["slip_onset"]["time"] == pytest.approx(1.0, abs=0.01)
+    assert early["slow_slip_during_transient"] is True and m["slow_slip_during_transient"] is False
     held = KnotSecurity().metrics(_Ctx(), _log())
     assert held["slip_onset"] is None and held["slip_load"] is None
     assert held["largest_load_held"] == pytest.approx(0.001 + 0.002 * 10.49, rel=1e-3)

@@ -39,7 +39,7 @@ and ``in_knot_load`` (at the start of the load); ``set_creep`` (m/s, the rate at
 knot still changed over the last 20 % of the set hold: a knot that is still drawing itself in was
 not set); then by mode ``slip_load`` (N), ``slip_load_norm`` and ``slip_onset`` (ramp: the run-away;
 ``slow_slip_load`` and ``slow_slip_onset``: the loaded end moving faster than ``slip_speed`` for
-0.5 s, a slow slip that may come well before the run-away;
+0.5 s, a slow slip that may come well before the run-away, with ``slow_slip_during_transient``;
 ``slip_during_transient``: the end was already running away when the detection began, after the
 ``transient``, so the slip load is at most the value given),
 ``drift_pull``, ``drift_tails`` (m over the hold after its rise) and their rates (m/s), and
@@ -262,6 +262,8 @@ class KnotSecurity(TwoRopeBend):
         ks = sustained_onset(t, after & (speed > float(p["slip_speed"])), 0.5)
         out["slow_slip_onset"] = (None if ks is None else
                                   {"time": float(t[ks]), "force": float(f[ks]), "criterion": "slip_speed"})
+        out["slow_slip_during_transient"] = bool(ks is not None and ks == int(np.argmax(after))
+                                                 and np.any(~after[:ks + 1] & (speed[:ks + 1] > float(p["slip_speed"]))))
         out["decidable"] = bool(t[-1] - t_skip >= 0.5)
         # a run-away already under way when the detection starts (at the end of the transient): the
         # slip load is then at most the load there, not that load
