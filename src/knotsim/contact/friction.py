@@ -101,6 +101,38 @@ def stick_potential(r, mu_limit, kappa):
     return mu_limit * r - 0.5 * mu_limit * mu_limit / kappa
 
 
+@njit(inline="always", cache=True)
+def law_force(kappa, xi0, u, s, dt, mu, nu, mu_limit, fn):
+    """The friction force of the surface laws for a slip ``u`` (3-tuple, m/s, ``s = |u|``) and a normal
+    force ``fn`` (N): the elastic-stick law (``kappa > 0``, 1/m) on the spring ``ξ = xi0 + u dt``
+    (``xi0`` a 3-tuple, m; limit ``mu_limit``), ``f = −F_n φ(|ξ|) ξ``, or else the smooth law of ``mu``
+    and ``nu``, ``f = −μ F_n φ(s) u``.
+
+    Returns ``(vec, φ, ψ, f)``: the vector the law is a function of (``ξ`` or ``u``), the law's
+    ``φ`` and ``ψ = φ'/r`` at its length, and ``f`` (N); :func:`law_force_dot` takes them back."""
+    if kappa > 0.0:
+        vec = v3.add(xi0, v3.scale(dt, u))
+        phi, psi = stick_functions(v3.norm(vec), mu_limit, kappa)
+        return vec, phi, psi, v3.scale(-fn * phi, vec)
+    _, phi, psi = slip_functions(s, nu)
+    return u, phi, psi, v3.scale(-mu * fn * phi, u)
+
+
+@njit(inline="always", cache=True)
+def law_force_dot(kappa, dt, mu, fn, dfn, phi, psi, vec, du):
+    """Directional derivative of :func:`law_force`'s ``f`` given those of the normal force ``dfn``
+    (N) and of the slip ``du`` (m/s): ``−[dF_n φ ξ + F_n (φ dξ + ψ (ξ·dξ) ξ)]`` with ``dξ = dt du``
+    (stick), or ``−μ [dF_n φ u + F_n (φ du + ψ (u·du) u)]`` (smooth)."""
+    if kappa > 0.0:
+        dvec = v3.scale(dt, du)
+        vdv = v3.dot(vec, dvec)
+        return v3.scale(-1.0, v3.add(v3.scale(dfn * phi, vec),
+                                     v3.scale(fn, v3.add(v3.scale(phi, dvec), v3.scale(psi * vdv, vec)))))
+    udu = v3.dot(vec, du)
+    return v3.scale(-mu, v3.add(v3.scale(dfn * phi, vec),
+                                v3.scale(fn, v3.add(v3.scale(phi, du), v3.scale(psi * udu, vec)))))
+
+
 @njit(cache=True)
 def friction_pair(p, p_prev, dt, mu, nu, fc, dfc, beta_i, beta_j, dbeta_i, dbeta_j, force_out, jac_out,
                   want_jacobian=True):

@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from knotsim import _vec3 as v3
-from knotsim.contact.friction import FRICTION_SHARPNESS, slip_functions, stick_functions
+from knotsim.contact.friction import FRICTION_SHARPNESS, law_force, law_force_dot, slip_functions
 from knotsim.contact.obstacle_kernels import node_distance
 from knotsim.contact.potential import imc_energy_derivatives
 from knotsim.contact.surface_friction import lever_force, lever_force_dot, lever_velocity, lever_velocity_dot
@@ -128,16 +128,10 @@ def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel
     wn = v3.dot(wv, n)
     u = v3.axpy(-wn, n, wv)
     s = v3.norm(u)
-    if kappa > 0.0:  # elastic stick: the spring ξ = ξ0 + u dt
-        vec = v3.add((xi0[0], xi0[1], xi0[2]), v3.scale(dt, u))
-        phi, psi = stick_functions(v3.norm(vec), mu_limit, kappa)
-        f = v3.scale(-fn * phi, vec)
+    vec, phi, psi, f = law_force(kappa, (xi0[0], xi0[1], xi0[2]), u, s, dt, mu, nu, mu_limit, fn)
+    if kappa > 0.0:  # elastic stick: vec is the spring ξ = ξ0 + u dt
         for k in range(3):
             xi_out[k] = vec[k]
-    else:
-        vec = u
-        _, phi, psi = slip_functions(s, nu)
-        f = v3.scale(-mu * fn * phi, u)
     gA = lever_force(cA, tA, f, n)
     gB = lever_force(cB, tB, f, n)
     mid = v3.sub(v3.add(f, gA), gB)
@@ -189,15 +183,7 @@ def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel
         dwv = v3.sub(v3.axpy(idt, dx, drot), v3.cross(om, dy))
         dwn = v3.dot(dwv, n) + v3.dot(wv, dn)
         du = v3.sub(v3.axpy(-dwn, n, dwv), v3.scale(wn, dn))
-        if kappa > 0.0:
-            dvec = v3.scale(dt, du)
-            vdv = v3.dot(vec, dvec)
-            df = v3.scale(-1.0, v3.add(v3.scale(dfn * phi, vec),
-                                       v3.scale(fn, v3.add(v3.scale(phi, dvec), v3.scale(psi * vdv, vec)))))
-        else:
-            udu = v3.dot(u, du)
-            df = v3.scale(-mu, v3.add(v3.scale(dfn * phi, u),
-                                      v3.scale(fn, v3.add(v3.scale(phi, du), v3.scale(psi * udu, u)))))
+        df = law_force_dot(kappa, dt, mu, fn, dfn, phi, psi, vec, du)
         dgA = lever_force_dot(cA, dcA, tA, dtA, f, df, n, dn)
         dgB = lever_force_dot(cB, dcB, tB, dtB, f, df, n, dn)
         for k in range(3):

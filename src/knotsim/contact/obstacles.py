@@ -71,7 +71,7 @@ from knotsim.bc.paths import Path, as_path
 from knotsim.contact.obstacle_kernels import CAPSULE, PLANE, SPHERE, obstacle_evaluate
 from knotsim.contact.obstacle_surface_kernels import STENCIL, obstacle_surface_evaluate, spin_update
 from knotsim.contact.obstacle_swept import NODE, describe, first_pass_through, obstacle_edges
-from knotsim.contact.stick import return_map
+from knotsim.contact.stick import return_map, spring_arrays
 from knotsim.errors import ConfigError, GeometryError
 
 __all__ = ["Capsule", "Obstacle", "ObstacleMemory", "Plane", "Sphere", "rotation_matrix"]
@@ -451,15 +451,8 @@ class Obstacle:
         """``(node_xi0 (k, 3) m, node_mu_limit (k,), stick_distance m)`` for the kernel (0: smooth law)."""
         if not self.stick:
             return _NO_XI, _NO_LIMIT, 0.0
-        mem = self.memory
-        k = self.nodes.size
-        if mem.stick_xi is None or np.shape(mem.stick_xi) != (k, 3):
-            mem.stick_xi = np.zeros((k, 3))
-        if mem.stick_sliding is None or np.shape(mem.stick_sliding) != (k,):
-            mem.stick_sliding = np.zeros(k, bool)
-        mem.stick_xi = np.ascontiguousarray(mem.stick_xi, dtype=float)
-        mem.stick_sliding = np.asarray(mem.stick_sliding, bool)
-        return mem.stick_xi, np.where(mem.stick_sliding, self.mu, self.mu_static), self._stick_length
+        xi, sliding = spring_arrays(self.memory, self.nodes.size)
+        return xi, np.where(sliding, self.mu, self.mu_static), self._stick_length
 
     def _evaluate_at(self, q) -> None:
         if getattr(self, "_q_eval", None) is None or not np.array_equal(self._q_eval, q):

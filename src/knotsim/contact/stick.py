@@ -31,11 +31,23 @@ import numpy as np
 
 from knotsim.errors import ConfigError
 
-__all__ = ["STICK_TOLERANCE", "StickHistory", "return_map"]
+__all__ = ["STICK_TOLERANCE", "StickHistory", "return_map", "spring_arrays"]
 
 #: A spring counts as beyond its limit when longer than the limit by this fraction: a contact that
 #: slid and stopped keeps ``|ξ| = δ_s`` up to rounding and must stick again, not slide on forever.
 STICK_TOLERANCE = 1e-9
+
+
+def spring_arrays(mem, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """A run memory's springs ``(stick_xi (k, 3) m, stick_sliding (k,) bool)`` for ``k`` contacts, set
+    to zero springs, sticking, where it has none (or a different number)."""
+    if mem.stick_xi is None or np.shape(mem.stick_xi) != (k, 3):
+        mem.stick_xi = np.zeros((k, 3))
+    if mem.stick_sliding is None or np.shape(mem.stick_sliding) != (k,):
+        mem.stick_sliding = np.zeros(k, bool)
+    mem.stick_xi = np.ascontiguousarray(mem.stick_xi, dtype=float)
+    mem.stick_sliding = np.asarray(mem.stick_sliding, bool)
+    return mem.stick_xi, mem.stick_sliding
 
 
 def return_map(xi_trial: np.ndarray, normal: np.ndarray, inside: np.ndarray, limit_length: np.ndarray,
@@ -94,20 +106,9 @@ class StickHistory:
         self._n_edges = int(model.n_edges)
 
     # ------------------------------------------------------------------ memory
-    @staticmethod
-    def _arrays(mem, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """The memory's ``(stick_xi (k, 3), stick_sliding (k,))``, zero springs where it has none."""
-        if mem.stick_xi is None or np.shape(mem.stick_xi) != (k, 3):
-            mem.stick_xi = np.zeros((k, 3))
-        if mem.stick_sliding is None or np.shape(mem.stick_sliding) != (k,):
-            mem.stick_sliding = np.zeros(k, bool)
-        mem.stick_xi = np.ascontiguousarray(mem.stick_xi, dtype=float)
-        mem.stick_sliding = np.asarray(mem.stick_sliding, bool)
-        return mem.stick_xi, mem.stick_sliding
-
     def kernel_args(self, mem, pair_mu: np.ndarray, pair_mu_static: np.ndarray) -> tuple:
         """``(pair_xi0 (k, 3) m, pair_mu_limit (k,), stick_distance m)`` for the contact kernels."""
-        xi, sliding = self._arrays(mem, pair_mu.shape[0])
+        xi, sliding = spring_arrays(mem, pair_mu.shape[0])
         return xi, np.ascontiguousarray(np.where(sliding, pair_mu, pair_mu_static)), self.stick_distance
 
     def _keys(self, pairs: np.ndarray) -> np.ndarray:
@@ -137,7 +138,7 @@ class StickHistory:
         """Pairs without a spring take over the longest spring (and its sliding state) among the
         neighbouring pairs of the list: the same two ropes, each edge shifted by at most one."""
         k = pairs.shape[0]
-        xi, sliding = self._arrays(mem, k)
+        xi, sliding = spring_arrays(mem, k)
         length = np.sqrt(np.einsum("ij,ij->i", xi, xi))
         empty = np.flatnonzero(length == 0.0)
         if not empty.size or not np.any(length > 0.0):

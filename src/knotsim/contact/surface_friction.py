@@ -36,6 +36,8 @@ from numba import njit
 from knotsim import _vec3 as v3
 from knotsim.contact.friction import (
     TINY_FORCE,
+    law_force,
+    law_force_dot,
     slip_functions,
     slip_potential,
     stick_functions,
@@ -73,23 +75,16 @@ def lever_velocity_dot(c, cd, t, td, ed, edd, n, nd):
 
 @njit(inline="always", cache=True)
 def lever_force(c, t, f, n):
-    """``g = −c [(n·t) f − (f·t) n]``, the lever-arm force on the edge's second node (N)."""
-    nt = v3.dot(n, t)
-    ft = v3.dot(f, t)
-    return (-c * (nt * f[0] - ft * n[0]), -c * (nt * f[1] - ft * n[1]), -c * (nt * f[2] - ft * n[2]))
+    """``g = −c [(n·t) f − (f·t) n]``, the lever-arm force on the edge's second node (N): the same
+    expression as :func:`lever_velocity` with the roles of ``(t, n)`` exchanged, so it is computed by
+    it (the same floating-point operations in the same order)."""
+    return lever_velocity(c, n, f, t)
 
 
 @njit(inline="always", cache=True)
 def lever_force_dot(c, cd, t, td, f, fd, n, nd):
-    """Directional derivative of :func:`lever_force`."""
-    nt = v3.dot(n, t)
-    ft = v3.dot(f, t)
-    ntd = v3.dot(nd, t) + v3.dot(n, td)
-    ftd = v3.dot(fd, t) + v3.dot(f, td)
-    out0 = -cd * (nt * f[0] - ft * n[0]) - c * (ntd * f[0] + nt * fd[0] - ftd * n[0] - ft * nd[0])
-    out1 = -cd * (nt * f[1] - ft * n[1]) - c * (ntd * f[1] + nt * fd[1] - ftd * n[1] - ft * nd[1])
-    out2 = -cd * (nt * f[2] - ft * n[2]) - c * (ntd * f[2] + nt * fd[2] - ftd * n[2] - ft * nd[2])
-    return (out0, out1, out2)
+    """Directional derivative of :func:`lever_force` (that of :func:`lever_velocity`, roles exchanged)."""
+    return lever_velocity_dot(c, cd, n, nd, f, fd, t, td)
 
 
 @njit(cache=True)
@@ -177,18 +172,10 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
     rr = v3.add(rot_a, rot_b)
     rolling = v3.norm(v3.axpy(-v3.dot(rr, n), n, rr))
     fnorm = sn
-    if kappa > 0.0:  # elastic stick: the spring ξ = ξ0 + u dt
-        vec = v3.add(v3.load(xi0, 0), v3.scale(dt, u))
-        phi, psi = stick_functions(v3.norm(vec), mu_limit, kappa)
-        f = v3.scale(-fnorm * phi, vec)
-        wrec = v3.scale(idt, vec)
-        coef = mu_limit
-    else:
-        vec = u
-        _, phi, psi = slip_functions(s, nu)
-        f = v3.scale(-mu * fnorm * phi, u)
-        wrec = u
-        coef = mu
+    vec, phi, psi, f = law_force(kappa, v3.load(xi0, 0), u, s, dt, mu, nu, mu_limit, fnorm)
+    stick = kappa > 0.0  # elastic stick: vec is the spring ξ = ξ0 + u dt
+    wrec = v3.scale(idt, vec) if stick else u
+    coef = mu_limit if stick else mu
     ga = lever_force(ca, ta, f, n)
     gb = lever_force(cb, tb, f, n)
     for r in range(3):
@@ -252,15 +239,7 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
         dw = v3.sub(v3.add(dtr_a, drot_a), v3.sub(dtr_b, drot_b))
         dwn = v3.dot(dw, n) + v3.dot(w, dn)
         du = v3.sub(v3.axpy(-dwn, n, dw), v3.scale(wn, dn))
-        if kappa > 0.0:
-            dvec = v3.scale(dt, du)
-            vdv = v3.dot(vec, dvec)
-            df = v3.scale(-1.0, v3.add(v3.scale(dfn * phi, vec),
-                                       v3.scale(fnorm, v3.add(v3.scale(phi, dvec), v3.scale(psi * vdv, vec)))))
-        else:
-            udu = v3.dot(u, du)
-            df = v3.scale(-mu, v3.add(v3.scale(dfn * phi, u),
-                                      v3.scale(fnorm, v3.add(v3.scale(phi, du), v3.scale(psi * udu, u)))))
+        df = law_force_dot(kappa, dt, mu, fnorm, dfn, phi, psi, vec, du)
         dga = lever_force_dot(ca, dca, ta, dta, f, df, n, dn)
         dgb = lever_force_dot(cb, dcb, tb, dtb, f, df, n, dn)
         for r in range(3):
