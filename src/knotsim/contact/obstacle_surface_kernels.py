@@ -40,7 +40,13 @@ from knotsim import _vec3 as v3
 from knotsim.contact.friction import FRICTION_SHARPNESS, law_force, law_force_dot, slip_functions
 from knotsim.contact.obstacle_kernels import node_distance
 from knotsim.contact.potential import imc_energy_derivatives
-from knotsim.contact.surface_friction import lever_force, lever_force_dot, lever_velocity, lever_velocity_dot
+from knotsim.contact.surface_friction import (
+    edge_dot,
+    lever_force,
+    lever_force_dot,
+    lever_velocity,
+    lever_velocity_dot,
+)
 
 #: Unknowns of a node's surface-friction stencil: x_{i−1}, θ_A, x_i, θ_B, x_{i+1}.
 STENCIL = 11
@@ -162,14 +168,8 @@ def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel
         # edge A runs from slot node 0 to node 1, edge B from node 1 to node 2
         sA = (1.0 if node == 1 else (-1.0 if node == 0 else 0.0)) if wA > 0.0 else 0.0
         sB = (1.0 if node == 2 else (-1.0 if node == 1 else 0.0)) if wB > 0.0 else 0.0
-        deA = v3.scale(sA, unit)
-        deB = v3.scale(sB, unit)
-        dlA = v3.dot(tA, deA)
-        dlB = v3.dot(tB, deB)
-        dtA = v3.scale(1.0 / lA, v3.axpy(-dlA, tA, deA))
-        dtB = v3.scale(1.0 / lB, v3.axpy(-dlB, tB, deB))
-        dcA = -cA * dlA / lA
-        dcB = -cB * dlB / lB
+        deA, dtA, dcA = edge_dot(sA, unit, tA, lA, cA)
+        deB, dtB, dcB = edge_dot(sB, unit, tB, lB, cB)
         domA = idt if m == 3 else 0.0
         domB = idt if m == 7 else 0.0
         dtAn = v3.add(v3.cross(dtA, n), v3.cross(tA, dn))

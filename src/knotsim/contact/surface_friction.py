@@ -74,6 +74,16 @@ def lever_velocity_dot(c, cd, t, td, ed, edd, n, nd):
 
 
 @njit(inline="always", cache=True)
+def edge_dot(sign, unit, t, l, c):
+    """Directional derivatives for an edge of tangent ``t``, length ``l`` (m) and ``c = h w/l`` when one
+    of its nodes moves along ``unit`` (``sign`` +1 for its second node, −1 for its first, 0 for
+    neither): ``(ė_dir, ṫ, ċ)`` (the edge vector's change, 1; the tangent's, 1/m; ``c``'s, 1/m)."""
+    de = v3.scale(sign, unit)
+    dl = v3.dot(t, de)
+    return de, v3.scale(1.0 / l, v3.axpy(-dl, t, de)), -c * dl / l
+
+
+@njit(inline="always", cache=True)
 def lever_force(c, t, f, n):
     """``g = −c [(n·t) f − (f·t) n]``, the lever-arm force on the edge's second node (N): the same
     expression as :func:`lever_velocity` with the roles of ``(t, n)`` exchanged, so it is computed by
@@ -214,14 +224,8 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
         unit = (1.0 if comp == 0 else 0.0, 1.0 if comp == 1 else 0.0, 1.0 if comp == 2 else 0.0)
         sa = 1.0 if node == 1 else (-1.0 if node == 0 else 0.0)
         sb = 1.0 if node == 3 else (-1.0 if node == 2 else 0.0)
-        dea = v3.scale(sa, unit)
-        deb = v3.scale(sb, unit)
-        dla = v3.dot(ta, dea)
-        dlb = v3.dot(tb, deb)
-        dta = v3.scale(1.0 / la, v3.axpy(-dla, ta, dea))
-        dtb = v3.scale(1.0 / lb, v3.axpy(-dlb, tb, deb))
-        dca = -ca * dla / la
-        dcb = -cb * dlb / lb
+        dea, dta, dca = edge_dot(sa, unit, ta, la, ca)
+        deb, dtb, dcb = edge_dot(sb, unit, tb, lb, cb)
         dwa = idt if m == 12 else 0.0
         dwb = idt if m == 13 else 0.0
         dv0 = v3.scale(idt if node == 0 else 0.0, unit)
