@@ -144,3 +144,34 @@ def test_none_text_unsets_a_contact_setting():
         sim, _ = build_run(check_run(spec))
         contact = next(i for i in sim.stepper.interactions if i.name == "contact")
         assert (contact.stick is not None) is stick
+
+
+def test_pulses_are_rise_and_fall_groups():
+    ctx, _ = _spec(load="pulses", pulse_load=0.006, pulse_period=0.8, n_pulses=3, hold_tension=0.001,
+                   set_ramp=0.4, set_hold=0.6, relax_time=0.2, load_time=0.0)  # 0: the pulses and 2 s
+    bcs = {b["name"]: b for b in ctx.bc}
+    for i in range(3):
+        up, down = bcs[f"load_up_{i}"], bcs[f"load_down_{i}"]
+        assert up["start"] == pytest.approx(1.2 + 0.8 * i) and up["stop"] == pytest.approx(1.6 + 0.8 * i)
+        assert down["start"] == pytest.approx(1.6 + 0.8 * i) and down["stop"] == pytest.approx(2.0 + 0.8 * i)
+        assert np.linalg.norm(up["ramp"]["to"]) == pytest.approx(0.006)
+        np.testing.assert_allclose(down["ramp"]["from"], up["ramp"]["to"])
+    assert bcs["load"]["start"] == pytest.approx(1.2 + 2.4) and np.linalg.norm(bcs["load"]["force"]) == 0.001
+    assert KnotSecurity().duration(ctx) == pytest.approx(1.2 + 2.4 + 2.0)
+    with pytest.raises(ConfigError, match="^n_pulses:"):
+        _spec(load="pulses", n_pulses=2.5)
+
+
+def test_pulse_metrics_count_cycles_to_spill():
+    t = np.arange(0.0, 6.0, 0.01)
+    u = np.where(t > 2.5, 0.004 * (t - 2.5) ** 2, 0.0)  # creeps from the third pulse on, faster and faster
+    log = pd.DataFrame({"time": t + 1.5, "F": np.ones(t.size), "F_norm": np.ones(t.size), "u_pull": u,
+                        "tail_a": np.full(t.size, 0.3), "tail_b": np.full(t.size, 0.3),
+                        "rope_gap": np.full(t.size, 4e-3), "in_knot": np.full(t.size, 0.2)})
+    m = KnotSecurity().metrics(_Ctx(load="pulses", pulse_period=1.0, n_pulses=5, spill_distance=0.01), log)
+    drift = np.interp([1, 2, 3, 4, 5], t, u)
+    np.testing.assert_allclose(m["pulse_drift"], drift)
+    assert m["cycles_to_spill"] == 5  # 0.009 m after the 4th, 0.025 m after the 5th
+    assert m["slip_onset"]["criterion"] == "spill" and KnotSecurity().slipped(None, m)
+    held = KnotSecurity().metrics(_Ctx(load="pulses", pulse_period=1.0, n_pulses=5, spill_distance=0.1), log)
+    assert held["cycles_to_spill"] is None and held["decidable"] and not KnotSecurity().slipped(None, held)

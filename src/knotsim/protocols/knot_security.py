@@ -21,7 +21,11 @@ Stages (times from the end of any ``settle_time``):
    * ``"hold"``: a force rising to ``hold_load`` (N) over ``transient`` s, then held: the drift of
      the pulled end and of the tails over the rest of the stage says whether the knot holds;
    * ``"slide"``: the end moves at ``pull_speed`` (m/s): the mean force over the second half is the
-     **sliding resistance**.
+     **sliding resistance**;
+   * ``"pulses"``: ``n_pulses`` triangular pulses from ``hold_tension`` up to ``pulse_load`` (N) and
+     back, ``pulse_period`` s each (a jerk test): the knot has **spilled** after the first pulse at
+     whose end the loaded end is more than ``spill_distance`` (m) from where the load began
+     (``cycles_to_spill``).
 
 With ``contact.stick_distance`` (the default here: 10 µm) the friction holds below its limit without
 creep (docs/physics.md §3.6), so a knot below its slip load does not move; ``contact.mu_static``
@@ -74,7 +78,16 @@ from knotsim.protocols.two_rope_bend import (
 
 __all__ = ["KnotSecurity"]
 
-LOAD_MODES = ("ramp", "hold", "slide")
+LOAD_MODES = ("ramp", "hold", "slide", "pulses")
+
+
+def pulse_load(t_load: float, base: float, peak: float, period: float, n: int) -> float:
+    """The load (N) of the ``"pulses"`` mode ``t_load`` s into the load stage: ``n`` triangular pulses
+    of ``period`` s from ``base`` up to ``peak`` and back, then ``base``."""
+    if t_load < 0 or t_load >= n * period:
+        return base
+    x = (t_load % period) / period
+    return base + (peak - base) * (2.0 * x if x < 0.5 else 2.0 * (1.0 - x))
 
 
 def _positive(params, key: str, allow_zero: bool = False) -> float:
@@ -105,7 +118,12 @@ class KnotSecurity(TwoRopeBend):
         "load": "ramp",
         "load_rate": 0.002,    # N/s (ramp)
         "hold_load": 0.005,    # N (hold)
-        "load_time": 0.0,      # s of load stage (0: 20 s for ramp, 10 s + transient for hold, 20 s for slide)
+        "load_time": 0.0,      # s of load stage (0: 20 s for ramp and slide, 10 s + transient for hold,
+                               # the pulses and 2 s for pulses)
+        "pulse_load": 0.005,   # N at the top of each pulse (pulses)
+        "pulse_period": 1.0,   # s per pulse (pulses)
+        "n_pulses": 10,        # pulses (pulses)
+        "spill_distance": 0.01,  # m the loaded end has moved at the end of a pulse = spilled (pulses)
         "pull_speed": 0.01,    # m/s (slide)
         "runaway_speed": 0.05,  # m/s: the loaded end faster than this for 0.5 s = running away
         "slip_speed": 0.002,   # m/s: faster than this for 0.5 s = slipping slowly (ramp); the elastic
@@ -172,6 +190,21 @@ class KnotSecurity(TwoRopeBend):
             ctx.add_bc("force", "load", rod=pulled.rope, nodes=pull_nodes, start=t_pre,
                        ramp={"from": list(t_hold * axis), "to": list(_positive(p, "hold_load") * axis),
                              "duration": rise})
+        elif mode == "pulses":
+            peak, period = _positive(p, "pulse_load"), _positive(p, "pulse_period")
+            n = p["n_pulses"]
+            if not (isinstance(n, int | float) and not isinstance(n, bool) and n >= 1 and float(n).is_integer()):
+                raise ConfigError("n_pulses", f"must be a positive integer, got {n!r}")
+            for i in range(int(n)):  # each pulse: a rise and a fall (set-up, once)
+                t0 = t_pre + i * period
+                ctx.add_bc("force", f"load_up_{i}", rod=pulled.rope, nodes=pull_nodes, start=t0,
+                           stop=t0 + 0.5 * period,
+                           ramp={"from": list(t_hold * axis), "to": list(peak * axis), "duration": 0.5 * period})
+                ctx.add_bc("force", f"load_down_{i}", rod=pulled.rope, nodes=pull_nodes, start=t0 + 0.5 * period,
+                           stop=t0 + period,
+                           ramp={"from": list(peak * axis), "to": list(t_hold * axis), "duration": 0.5 * period})
+            ctx.add_bc("force", "load", rod=pulled.rope, nodes=pull_nodes, start=t_pre + int(n) * period,
+                       force=list(t_hold * axis))
         else:
             ctx.add_bc("move", "load", rod=pulled.rope, nodes=pull_nodes, start=t_pre,
                        velocity=list(_positive(p, "pull_speed") * axis))
@@ -188,7 +221,8 @@ class KnotSecurity(TwoRopeBend):
         p = ctx.params
         load = float(p["load_time"])
         if not load > 0:
-            load = 10.0 + float(p["transient"]) if p["load"] == "hold" else 20.0
+            load = (10.0 + float(p["transient"]) if p["load"] == "hold" else
+                    int(p["n_pulses"]) * float(p["pulse_period"]) + 2.0 if p["load"] == "pulses" else 20.0)
         return float(ctx.data["t_pre"]) + load
 
     def record(self, ctx: RunContext, q, t, reactions) -> dict:
@@ -205,6 +239,8 @@ class KnotSecurity(TwoRopeBend):
             f = t_hold + float(p["load_rate"]) * t_load
         elif p["load"] == "hold":
             f = t_hold + (float(p["hold_load"]) - t_hold) * min(t_load / float(p["transient"]), 1.0)
+        elif p["load"] == "pulses":
+            f = pulse_load(t_load, t_hold, float(p["pulse_load"]), float(p["pulse_period"]), int(p["n_pulses"]))
         else:
             f = float(np.dot(reactions["load"][:3], axis)) if "load" in reactions else math.nan
         ropes = [x[m.rod_node_start[r]:m.rod_node_start[r + 1]] for r in range(m.n_rods)]
@@ -246,6 +282,9 @@ class KnotSecurity(TwoRopeBend):
         t_skip = float(p["transient"])
         after = t >= t_skip
         out["load_time"] = float(t[-1])
+        if p["load"] == "pulses":
+            out.update(_pulse_metrics(p, log, t))
+            return out
         if p["load"] == "slide":
             half = t >= 0.5 * t[-1]
             out["sliding_resistance"] = window_mean(log, "F", float(t[half][0]) if half.any() else None)
@@ -300,3 +339,19 @@ class KnotSecurity(TwoRopeBend):
             out["hold_load"] = float(p["hold_load"])
             out["hold_load_norm"] = float(p["hold_load"]) * norm
         return out
+
+
+def _pulse_metrics(p, log, t) -> dict:
+    """Cycles to spill of the ``"pulses"`` mode: the loaded end's displacement at the end of each pulse
+    (back at the base load) from where the load stage began, ``pulse_drift`` (m); the knot has spilled
+    in the first pulse after which it exceeds ``spill_distance`` (``cycles_to_spill``; ``None``: it
+    never did)."""
+    period, n, spill = float(p["pulse_period"]), int(p["n_pulses"]), float(p["spill_distance"])
+    u = np.asarray(log["u_pull"], float)
+    ends = [i * period for i in range(1, n + 1) if i * period <= t[-1] + 1e-9]
+    moved = [float(np.interp(te, t, u) - u[0]) for te in ends]
+    spilled = next((i + 1 for i, m in enumerate(moved) if abs(m) > spill), None)
+    return {"pulse_drift": moved, "pulses_done": len(ends), "cycles_to_spill": spilled,
+            "decidable": len(ends) == n or spilled is not None,
+            "slip_onset": (None if spilled is None else
+                           {"time": float(ends[spilled - 1]), "force": math.nan, "criterion": "spill"})}

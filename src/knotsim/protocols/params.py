@@ -101,6 +101,10 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "load_time": ("s", "knot security: length of the load stage (0: 20 s, hold 10 s after its rise)"),
     "slip_speed": ("m/s", "knot security, ramp: the loaded end faster than this for 0.5 s = a slow slip"),
     "hold_drift": ("m", "knot security, hold: the loaded end moving further over the hold's second half = a slip"),
+    "pulse_load": ("N", "knot security, pulses: the load at the top of each triangular pulse"),
+    "pulse_period": ("s", "knot security, pulses: duration of one pulse (rise and fall)"),
+    "n_pulses": ("-", "knot security, pulses: number of pulses"),
+    "spill_distance": ("m", "knot security, pulses: the loaded end this far from its start after a pulse = spilled"),
 }
 
 #: Allowed range of numeric protocol parameters, checked by :func:`check_param_ranges` before
@@ -116,7 +120,8 @@ PARAM_RANGES: dict[str, str] = {
     "pre_tighten": ">=0", "pre_tighten_speed": ">0", "force_rate": ">0", "runaway_speed": ">0",
     "slip_draw_in_rate": ">0", "slip_hold": ">=0", "set_tension": ">0", "set_ramp": ">0", "set_hold": ">=0",
     "hold_tension": ">=0", "relax_time": ">0", "load_rate": ">0", "hold_load": ">0", "load_time": ">=0",
-    "slip_speed": ">0", "hold_drift": ">0",
+    "slip_speed": ">0", "hold_drift": ">0", "pulse_load": ">0", "pulse_period": ">0", "n_pulses": "int>=1",
+    "spill_distance": ">0",
 }
 _RANGE_TEXT = {">0": "a positive number", ">=0": "a non-negative number", "int>=1": "a positive integer",
                "int>=3": "an integer >= 3", "poisson": "a number in (-1, 0.5]"}
