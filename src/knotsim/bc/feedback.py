@@ -27,9 +27,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+
+from knotsim.solver.state import LoadCellMemory, memory_field
 
 
 def michell_twist(rod) -> float:
@@ -74,13 +76,16 @@ class LoadCell:
     kp: float
     ki: float
     max_speed: float
-    u: float = 0.0          # displacement (m) at the last accepted step
-    u_cmd: float = 0.0      # commanded displacement (m) for the next step
-    integral: float = 0.0   # ∫ e dt (N s)
-    force: float = 0.0      # measured force along direction (N) at the last accepted step
-    error: float = 0.0      # target - force (N)
-    t_last: float | None = None  # time of the last accepted step (s)
-    u_step: float = 0.0     # displacement prescribed in the current step (m)
+    #: the controller's state (run memory, part of the group's :class:`~knotsim.solver.state.GroupMemory`)
+    memory: LoadCellMemory = field(default_factory=LoadCellMemory, repr=False, compare=False)
+
+    u = memory_field("u", "displacement (m) at the last accepted step")
+    u_cmd = memory_field("u_cmd", "commanded displacement (m) for the next step")
+    integral = memory_field("integral", "∫ e dt (N s)")
+    force = memory_field("force", "measured force along direction (N) at the last accepted step")
+    error = memory_field("error", "target - force (N)")
+    t_last = memory_field("t_last", "time of the last accepted step (s), or ``None``")
+    u_step = memory_field("u_step", "displacement prescribed in the current step (m)")
 
     def displacement(self, t: float, t_in: float) -> float:
         """Displacement (m) prescribed at the end ``t`` of a step starting at ``t_in``."""
@@ -105,17 +110,3 @@ class LoadCell:
     def reset(self) -> None:
         self.u = self.u_cmd = self.integral = self.force = self.error = self.u_step = 0.0
         self.t_last = None
-
-    _SAVED = ("u", "u_cmd", "integral", "force", "error", "u_step")
-
-    def save(self) -> dict:
-        out = {k: float(getattr(self, k)) for k in self._SAVED}
-        out["t_last"] = -1.0 if self.t_last is None else float(self.t_last)
-        return out
-
-    def load(self, meta: dict) -> None:
-        for k in self._SAVED:
-            if k in meta:
-                setattr(self, k, float(meta[k]))
-        t_last = float(meta.get("t_last", -1.0))
-        self.t_last = None if t_last < 0 else t_last

@@ -125,6 +125,7 @@ class GripMethods:
         grp = Group(name, GroupKind.LOAD_CELL, r, g, self._edges_within(g) if twist else np.zeros(0, np.int64), start, stop,
                     fix_twist=twist)
         grp.cell = LoadCell(d / np.linalg.norm(d), load, gains["kp"], gains["ki"], gains["max_speed"])
+        grp.memory.cell = grp.cell.memory
         return self._add(grp)
 
     def interactions(self) -> list:
@@ -168,6 +169,7 @@ class GripMethods:
         centroid = g.anchor.mean(axis=0)
         if g.path is not None:
             g.path.bind(centroid)
+            g.memory.path_start = g.path.bound_state()
             if g.path.absolute_start is not None:
                 self._check_path_start(g, centroid)
         if g.rotation is not None:
@@ -181,6 +183,7 @@ class GripMethods:
             g.anchor = q_in[m.node_dof[g.nodes][:, None] + np.arange(3)[None, :]].copy()
             g.anchor_time = t_in
             g.path.bind(g.anchor.mean(axis=0))
+            g.memory.path_start = g.path.bound_state()
             if g.path.absolute_start is not None:
                 self._check_path_start(g, g.anchor.mean(axis=0))
         disp = g.path(t - g.start) - g.path(max(g.anchor_time - g.start, 0.0))

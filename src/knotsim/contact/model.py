@@ -568,6 +568,23 @@ class Contact:
         self._ev_accepted = self._ev_pending
         return dict(self._stats)
 
+    @property
+    def friction_model(self) -> str:
+        """The friction law (``"surface"`` or ``"centreline"``)."""
+        return str(self.options.friction_model)
+
+    @property
+    def node_field_names(self) -> tuple[str, ...]:
+        """The contact and friction force per node, and with surface friction the slip and rolling
+        speeds (:meth:`node_forces`, :meth:`node_slip`)."""
+        return ("contact_force", "friction_force", *(("slip_speed", "rolling_speed") if self.surface_friction else ()))
+
+    def node_fields(self) -> dict[str, np.ndarray]:
+        out = dict(zip(("contact_force", "friction_force"), self.node_forces(), strict=True))
+        if self.surface_friction:
+            out["slip_speed"], out["rolling_speed"] = self.node_slip()
+        return out
+
     def node_forces(self) -> tuple[np.ndarray, np.ndarray]:
         """``(contact, friction)``: ``(n_nodes,)`` magnitudes (N) of the net contact (normal) and
         friction force on every global node at the last accepted step (the pairs' nodal forces

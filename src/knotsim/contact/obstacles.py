@@ -578,6 +578,12 @@ class Obstacle:
         elif mem.spin is not None:
             mem.spin = np.array(mem.spin, float)
 
+    #: no per-node output (the reaction is logged by :meth:`stats`)
+    node_field_names: tuple[str, ...] = ()
+
+    def node_fields(self) -> dict[str, np.ndarray]:
+        return {}
+
     def untracked_sources(self) -> list[str]:
         """None: :meth:`supplied_work` counts the work of the obstacle's motion."""
         return []
