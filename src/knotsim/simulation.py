@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from knotsim._util.validate import number
 from knotsim.errors import ConfigError, SimulationError, ValidityError
 from knotsim.solver.options import SolverOptions
 from knotsim.solver.state import DriverMemory, RunMemory, State, initial_state
@@ -201,8 +202,7 @@ class Simulation:
         every step), ``log.parquet`` and ``run.json`` there (see :mod:`knotsim.io.run_output`).
         ``progress``: show a progress bar (default: only when stderr is a terminal).
         """
-        if not (isinstance(duration, int | float) and duration > 0 and math.isfinite(duration)):
-            raise ConfigError("duration", f"must be a positive time in s, got {duration!r}")
+        number(duration, "duration", above=0.0, must="be a positive time in s")
         t_start_run = self.state.time if self._continue_end is None else self._continue_end
         self._continue_end = None
         t_end = t_start_run + duration
