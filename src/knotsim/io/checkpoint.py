@@ -10,9 +10,9 @@ A checkpoint holds
   policy's (current step, easy-step count, retry cool-down, failures so far), the validity guards'
   and each interaction's (contact: stiffness ``k_c``, the force driving it, the Verlet pair list
   and the positions it was built at; an interaction's memory is a dataclass of numbers and arrays,
-  written field by field);
-- each boundary-condition group's captured anchor (positions and angles it prescribes from, the
-  time they were captured, and the start point of a ``from_current`` path);
+  written field by field) and each boundary-condition group's (the positions and angles it
+  prescribes from, the time they were captured, a turning grip's pivot, the start point of a
+  ``from_current`` path, a load cell's controller: :class:`~knotsim.solver.state.GroupMemory`);
 - the model's layout (rod names, node and edge counts, closed flags, radii), checked on restore.
 
 When the run's last step was shortened to land on the requested end time, the checkpoint holds
