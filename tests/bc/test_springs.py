@@ -128,7 +128,7 @@ def test_run_file_forms_and_checkpointed_state(tmp_path):
     sim.save_checkpoint(tmp_path / "checkpoint.npz")
     fresh = load_config(raw).build_bcs()
     fresh.use_memory(read_checkpoint(tmp_path / "checkpoint.npz").state(RunMemory(bc=fresh.memory())).memory.bc)
-    assert fresh.groups["cell"].cell.integral == sim.bcs.groups["cell"].cell.integral
+    assert fresh.groups["cell"].cell.memory.integral == sim.bcs.groups["cell"].cell.memory.integral
     assert np.array_equal(fresh.groups["side"].anchor, sim.bcs.groups["side"].anchor)
     bad = dict(raw, bc=[dict(raw["bc"][1], ki=-1.0)])
     with pytest.raises(ConfigError) as info:

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from knotsim.solver.state import LoadCellMemory, memory_field
+from knotsim.solver.state import LoadCellMemory
 
 
 def michell_twist(rod) -> float:
@@ -69,44 +69,40 @@ class LoadCell:
     """A grip moved along ``direction (3,)`` (unit) by ``u`` (m) so that the reaction force along
     ``direction`` follows ``target(elapsed)`` (N): ``u_cmd = kp e + ki ∫ e dt`` with the error
     ``e = target - F`` (N) measured after every accepted step (gains ``kp`` m/N, ``ki`` m/(N s)); the
-    next step moves the grip to ``u_cmd``, at most ``max_speed`` (m/s) fast."""
+    next step moves the grip to ``u_cmd``, at most ``max_speed`` (m/s) fast. The controller's
+    numbers are its run memory (:class:`~knotsim.solver.state.LoadCellMemory`)."""
 
     direction: np.ndarray
     target: Callable[[float], np.ndarray]
     kp: float
     ki: float
     max_speed: float
-    #: the controller's state (run memory, part of the group's :class:`~knotsim.solver.state.GroupMemory`)
+    #: the controller's state (part of the group's :class:`~knotsim.solver.state.GroupMemory`)
     memory: LoadCellMemory = field(default_factory=LoadCellMemory, repr=False, compare=False)
-
-    u = memory_field("u", "displacement (m) at the last accepted step")
-    u_cmd = memory_field("u_cmd", "commanded displacement (m) for the next step")
-    integral = memory_field("integral", "∫ e dt (N s)")
-    force = memory_field("force", "measured force along direction (N) at the last accepted step")
-    error = memory_field("error", "target - force (N)")
-    t_last = memory_field("t_last", "time of the last accepted step (s), or ``None``")
-    u_step = memory_field("u_step", "displacement prescribed in the current step (m)")
 
     def displacement(self, t: float, t_in: float) -> float:
         """Displacement (m) prescribed at the end ``t`` of a step starting at ``t_in``."""
-        du = self.u_cmd - self.u
+        m = self.memory
+        du = m.u_cmd - m.u
         if math.isfinite(self.max_speed):
             lim = self.max_speed * max(t - t_in, 0.0)
             du = min(max(du, -lim), lim)
-        self.u_step = self.u + du
-        return self.u_step
+        m.u_step = m.u + du
+        return m.u_step
 
     def update(self, t: float, start: float, force: float) -> None:
         """After an accepted step ending at ``t`` (s) with measured ``force`` (N) along the direction."""
+        m = self.memory
         target = float(self.target(t - start))
-        dt = t - (self.t_last if self.t_last is not None else start)
-        self.force = force
-        self.error = target - force
-        self.integral += self.error * max(dt, 0.0)
-        self.u = self.u_step
-        self.u_cmd = self.kp * self.error + self.ki * self.integral
-        self.t_last = t
+        dt = t - (m.t_last if m.t_last is not None else start)
+        m.force = force
+        m.error = target - force
+        m.integral += m.error * max(dt, 0.0)
+        m.u = m.u_step
+        m.u_cmd = self.kp * m.error + self.ki * m.integral
+        m.t_last = t
 
     def reset(self) -> None:
-        self.u = self.u_cmd = self.integral = self.force = self.error = self.u_step = 0.0
-        self.t_last = None
+        m = self.memory
+        m.u = m.u_cmd = m.integral = m.force = m.error = m.u_step = 0.0
+        m.t_last = None

@@ -117,18 +117,18 @@ class StepMemory:
 @dataclass
 class LoadCellMemory:
     """The PI controller of a load-cell grip (:class:`~knotsim.bc.feedback.LoadCell`): the
-    displacement ``u`` (m) at the last accepted step, the commanded one ``u_cmd`` for the next step,
-    the integral of the force error ``integral`` (N s), the measured ``force`` and the ``error``
-    (N), the displacement ``u_step`` prescribed in the current step (m) and the time ``t_last`` (s)
-    of the last accepted step (``None`` before the first)."""
+    displacement ``u`` (m) at the last accepted step, the one ``u_step`` prescribed in the current
+    step and the one ``u_cmd`` commanded for the next, the time ``t_last`` (s) of the last accepted
+    step (``None`` before the first), the integral of the force error ``integral`` (N s), the
+    measured ``force`` and the ``error`` (N) then."""
 
     u: float = 0.0
+    u_step: float = 0.0
     u_cmd: float = 0.0
+    t_last: float | None = None
     integral: float = 0.0
     force: float = 0.0
     error: float = 0.0
-    u_step: float = 0.0
-    t_last: float | None = None
 
 
 @dataclass
