@@ -346,3 +346,24 @@ def test_grips_with_memory_continue_bit_for_bit(tmp_path):
     np.testing.assert_array_equal(cont.state.v, full.state.v)
     for col in ("cell_displacement", "cell_error", "side_fy", "turn_angle"):
         assert cont.log[col].iloc[-1] == full.log[col].iloc[-1]
+
+
+def test_a_group_added_during_the_run_is_carried_and_checkpointed(tmp_path):
+    """A boundary-condition group added to a running simulation enters the state's memory at its
+    first step and is written to the checkpoint."""
+    import knotsim as ks
+    from knotsim.io.checkpoint import read_checkpoint
+
+    x = np.zeros((11, 3))
+    x[:, 0] = np.linspace(0.0, 0.1, 11)
+    model = ks.Model([ks.RodSpec(x, radius=1e-3, youngs_modulus=1e6, density=1000.0)], damping=0.05)
+    bcs = ks.BoundaryConditions(model)
+    bcs.clamp("left", nodes=[0, 1])
+    sim = ks.Simulation(model, bcs, ks.SolverOptions(dt=2e-3))
+    sim.run(0.01, progress=False)
+    bcs.hold("late", nodes=[-1])
+    sim.run(0.01, progress=False)
+    assert sim.state.memory.bc["late"] is bcs.groups["late"].memory
+    sim.save_checkpoint(tmp_path / "checkpoint.npz")
+    meta, arrays = read_checkpoint(tmp_path / "checkpoint.npz").section("bc/late")
+    assert meta["anchored"] and arrays["anchor"].shape == (1, 3)

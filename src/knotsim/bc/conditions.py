@@ -376,17 +376,18 @@ class BoundaryConditions(GripMethods):
                 g.use_memory(mem)
 
     def begin_step(self, state_in) -> None:
-        """Before a step from ``state_in``: the groups take the memories it carries
-        (``state_in.memory.bc``) when they are other objects than their own (a restored run), or
-        enter their own there when it carries none."""
+        """Before a step from ``state_in``: each group that captures a memory takes the one
+        ``state_in`` carries under its name (``state_in.memory.bc``) when it is another object than
+        its own (a restored run), or enters its own there when the state carries none (also a
+        group added after the run started)."""
         carried = state_in.memory.bc
-        if not carried:
-            carried.update(self.memory())
-            return
-        for name, mem in carried.items():
-            g = self.groups.get(name)
-            if g is not None and mem is not g.memory:
-                g.use_memory(mem)
+        for g in self.groups.values():
+            if g.prescribed or g.kind == GroupKind.SPRING:
+                mem = carried.get(g.name)
+                if mem is None:
+                    carried[g.name] = g.memory
+                elif mem is not g.memory:
+                    g.use_memory(mem)
 
     def reset(self) -> None:
         """Forget captured anchors (before re-running from the initial state)."""

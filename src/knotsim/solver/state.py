@@ -152,11 +152,12 @@ class RunMemory:
     """What the parts of a run remember across steps, carried with the :class:`State`.
 
     ``driver`` (:class:`DriverMemory`), ``step`` (:class:`StepMemory`), ``validity``
-    (:class:`ValidityMemory`), ``interactions`` (by interaction name: the object each interaction's
+    (:class:`ValidityMemory`), ``interactions`` (by interaction name: each interaction's
     ``memory``, a dataclass of numbers and arrays) and ``bc`` (by group name: what a
-    boundary-condition group captured, :class:`GroupMemory`). :meth:`State.copy` shares the sections (a failed attempt
-    keeps what it changed in them, e.g. a raised contact stiffness, as the holders always did);
-    :meth:`snapshot` copies them."""
+    boundary-condition group captured, :class:`GroupMemory`). :meth:`State.copy` shares the
+    sections, the ``bc`` table included (a failed attempt keeps what it changed in them, e.g. a
+    raised contact stiffness or a captured anchor, as the holders always did); :meth:`snapshot`
+    copies them."""
 
     driver: DriverMemory = field(default_factory=DriverMemory)
     step: StepMemory = field(default_factory=StepMemory)
@@ -166,7 +167,7 @@ class RunMemory:
 
     def copy(self) -> RunMemory:
         """A new container holding the same sections."""
-        return RunMemory(self.driver, self.step, self.validity, dict(self.interactions), dict(self.bc))
+        return RunMemory(self.driver, self.step, self.validity, dict(self.interactions), self.bc)
 
     def snapshot(self) -> RunMemory:
         """A copy of every section (arrays included)."""
