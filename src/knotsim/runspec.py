@@ -7,6 +7,9 @@ a simulation. Every entry point goes through it: Python (:func:`build_run`, :fun
 >>> result = run(spec, "out")                               # trajectory, log, run.toml, checkpoint
 >>> later = run(RunSpec.load("out/run.toml"), "out2", duration=1.0, continue_from="out")
 
+:func:`run_simulation` runs a built simulation, catches its failure and summarises its cost
+(:class:`RunOutcome`); every entry point runs through it.
+
 A run description is a plain dict with the tables of a run file (``docs/run-files.md``):
 ``rods``, ``model``, ``bc``, ``contact``, ``solver``, ``run``, ``stages``, ``description``,
 ``provenance``. :meth:`RunSpec.save` writes it as TOML with every float exact, so the file replays
@@ -25,9 +28,10 @@ from typing import Any
 import pandas as pd
 
 from knotsim._util.toml import load_toml, write_toml
-from knotsim.errors import ConfigError
+from knotsim.errors import ConfigError, SimulationError
 
-__all__ = ["RunResult", "RunSpec", "build_run", "build_simulation", "check_run", "run"]
+__all__ = ["RunOutcome", "RunResult", "RunSpec", "build_run", "build_simulation", "check_run", "run", "run_line",
+           "run_simulation"]
 
 #: rod keys that name files, resolved against the description's directory when it is saved elsewhere
 _PATH_KEYS = ("file", "run")
@@ -155,6 +159,71 @@ def _same_bcs(a: dict, b: dict) -> bool:
     return a.get("bc") == b.get("bc") and a.get("stages") == b.get("stages")
 
 
+def run_line(n_steps: int, sim_time: float, wall_time: float, failed_attempts: int | None = None,
+             newton_iterations: int | None = None) -> str:
+    """A run's cost in one line, the numbers always in the same format: ``"2 s in 412 steps (0 step
+    failures, 3.41 Newton iterations per step), wall time 12.3 s"`` (the parenthesis when the
+    failures are given)."""
+    detail = ""
+    if failed_attempts is not None:
+        ips = newton_iterations / n_steps if n_steps and newton_iterations is not None else 0.0
+        detail = f" ({failed_attempts} step failures, {ips:.2f} Newton iterations per step)"
+    return f"{sim_time:.4g} s in {n_steps} steps{detail}, wall time {wall_time:.1f} s"
+
+
+@dataclass
+class RunOutcome:
+    """How :func:`run_simulation` went: ``status`` (``"completed"`` or ``"failed at t = T s:
+    reason"``), the :class:`~knotsim.errors.SimulationError` that stopped it (or ``None``), the
+    simulation's per-step ``log``, the simulated time ``sim_time`` (s) and ``wall_time`` (s) of this
+    run, and the failed step attempts so far."""
+
+    status: str
+    error: SimulationError | None
+    log: pd.DataFrame
+    sim_time: float
+    wall_time: float
+    failed_attempts: int
+
+    @property
+    def completed(self) -> bool:
+        return self.error is None
+
+    @property
+    def n_steps(self) -> int:
+        return int(len(self.log))
+
+    @property
+    def newton_iterations(self) -> int:
+        return int(self.log["iterations"].sum()) if len(self.log) else 0
+
+    def describe(self) -> str:
+        """:func:`run_line` of this run."""
+        return run_line(self.n_steps, self.sim_time, self.wall_time, self.failed_attempts, self.newton_iterations)
+
+
+def run_simulation(sim, duration: float, output_dir: str | os.PathLike | None = None, *,
+                   output_interval: float | None = None, progress: bool | None = None,
+                   callback=None) -> RunOutcome:
+    """Run ``sim`` (a :class:`~knotsim.simulation.Simulation`) for ``duration`` s, writing its files
+    to ``output_dir``; a :class:`~knotsim.errors.SimulationError` stops the run and is caught into
+    the outcome (the files are written up to the last accepted step). The one place where a run is
+    run, its failure caught and its cost summarised (:func:`run`, the protocols, ``knotsim run``,
+    study cases)."""
+    import time
+
+    t_start = float(sim.state.time)
+    wall0 = time.perf_counter()
+    status, error = "completed", None
+    try:
+        sim.run(duration, output_dir=output_dir, output_interval=output_interval, progress=progress,
+                callback=callback)
+    except SimulationError as exc:
+        status, error = f"failed at t = {sim.state.time:.6g} s: {exc}", exc
+    wall = time.perf_counter() - wall0
+    return RunOutcome(status, error, sim.log(), float(sim.state.time - t_start), wall, int(sim.n_failures))
+
+
 @dataclass
 class RunResult:
     """What :func:`run` returns: the per-step ``log``, the final ``state``, the ``simulation``,
@@ -176,15 +245,9 @@ def run(spec: RunSpec | dict | str | os.PathLike, output_dir: str | os.PathLike 
     files are written up to the last accepted step (with its checkpoint) and, with
     ``raise_on_failure=False``, the result says ``status = "failed ..."`` instead of raising.
     ``duration`` is the simulated time to add (s; default ``run.duration``)."""
-    from knotsim.errors import SimulationError
-
     sim, cfg = build_run(spec, duration=duration, continue_from=continue_from)
-    status = "completed"
-    try:
-        sim.run(cfg.duration, output_dir=output_dir, output_interval=cfg.output_interval, progress=progress,
-                callback=callback)
-    except SimulationError as exc:
-        status = f"failed at t = {sim.state.time:.6g} s: {exc}"
-        if raise_on_failure:
-            raise
-    return RunResult(sim.log(), sim.state, sim, status, Path(output_dir) if output_dir is not None else None)
+    outcome = run_simulation(sim, cfg.duration, output_dir, output_interval=cfg.output_interval, progress=progress,
+                             callback=callback)
+    if outcome.error is not None and raise_on_failure:
+        raise outcome.error
+    return RunResult(outcome.log, sim.state, sim, outcome.status, Path(output_dir) if output_dir is not None else None)

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from knotsim._util.validate import number
 from knotsim.errors import ConfigError, SimulationError, ValidityError
 from knotsim.solver.options import SolverOptions
 from knotsim.solver.state import DriverMemory, RunMemory, State, initial_state
@@ -55,15 +56,16 @@ class Simulation:
         self.validity = ValidityMonitor(model, self.options.max_axial_strain, self.options.max_energy_gain,
                                         self.stepper.force_tol, self.stepper.interactions)
         # the run's memory starts afresh (a state handed over from another run brings its rods only);
-        # the interactions bring the memory they hold (e.g. a contact stiffness from an earlier stage)
+        # the interactions and the boundary-condition groups bring the memory they hold (e.g. a
+        # contact stiffness or a grip's anchor from an earlier stage)
         self.state.memory = RunMemory(driver=DriverMemory(dt=self.options.dt),
                                       interactions={i.name: i.memory for i in self.stepper.interactions
-                                                    if i.memory is not None})
+                                                    if i.memory is not None},
+                                      bc=bcs.memory() if bcs is not None else {})
         self.dt_min = self.options.dt_min or self.options.dt / 1024.0
-        #: ``(state, boundary-condition sections)`` just before a final step that was shortened to land
-        #: on the requested end time (the state's run memory a snapshot; see :meth:`resume_point`),
-        #: else ``None``
-        self._before_short_step: tuple[State, dict] | None = None
+        #: the state just before a final step that was shortened to land on the requested end time
+        #: (its run memory a snapshot; see :meth:`resume_point`), else ``None``
+        self._before_short_step: State | None = None
         #: end time (s) a restored checkpoint's run was asked to reach (see :meth:`run`)
         self._continue_end: float | None = None
         #: the running sum of steps before it was set to the requested end time (see :meth:`advance`)
@@ -108,7 +110,7 @@ class Simulation:
             if shortened and attempts == 0:
                 before = self.state.copy()
                 before.memory = self.state.memory.snapshot()
-                self._before_short_step = (before, _copy_sections(self._bc_sections()))
+                self._before_short_step = before
             trial = self.state.copy()
             attempts += 1
             try:
@@ -200,8 +202,7 @@ class Simulation:
         every step), ``log.parquet`` and ``run.json`` there (see :mod:`knotsim.io.run_output`).
         ``progress``: show a progress bar (default: only when stderr is a terminal).
         """
-        if not (isinstance(duration, int | float) and duration > 0 and math.isfinite(duration)):
-            raise ConfigError("duration", f"must be a positive time in s, got {duration!r}")
+        number(duration, "duration", above=0.0, must="be a positive time in s")
         t_start_run = self.state.time if self._continue_end is None else self._continue_end
         self._continue_end = None
         t_end = t_start_run + duration
@@ -248,11 +249,8 @@ class Simulation:
         return self.rows.to_frame()
 
     # ------------------------------------------------------------------ checkpoints
-    def _bc_sections(self) -> dict[str, tuple[dict, dict]]:
-        return self.bcs.save_state() if self.bcs is not None else {}
-
-    def resume_point(self) -> tuple[State, dict[str, tuple[dict, dict]], float]:
-        """``(state, boundary-condition sections, end_time)`` to continue this run from.
+    def resume_point(self) -> tuple[State, float]:
+        """``(state, end_time)`` to continue this run from.
 
         The current state (with its :class:`~knotsim.solver.state.RunMemory`), unless the last step
         was shortened to land on the requested end time: then the state just before that step, so
@@ -262,13 +260,12 @@ class Simulation:
         ``end_time``), so that time-dependent boundary conditions see the same times in the
         continued run as in an uninterrupted one."""
         if self._before_short_step is not None:
-            state, bc = self._before_short_step
-            return state, bc, float(self.state.time)
+            return self._before_short_step, float(self.state.time)
         state = self.state
         if self._unsnapped_time is not None and abs(self._unsnapped_time - state.time) < 1e-9:
             state = state.copy()
             state.time = self._unsnapped_time
-        return state, self._bc_sections(), float(self.state.time)
+        return state, float(self.state.time)
 
     def save_checkpoint(self, path) -> None:
         """Write everything that decides the next step to ``path`` (see :mod:`knotsim.io.checkpoint`)."""
@@ -279,9 +276,10 @@ class Simulation:
     def restore(self, checkpoint, *, boundary_conditions: bool = True) -> None:
         """Continue from ``checkpoint`` (a :class:`~knotsim.io.checkpoint.Checkpoint` or a path).
 
-        The state and its run memory (the stepper's, the adaptive step's, the validity guards' and
-        the interactions') are restored; with ``boundary_conditions`` also the anchors of the groups
-        that exist in both (``False`` when the continuation brings new boundary conditions: they
+        The state and its run memory (the stepper's, the adaptive step's, the validity guards', the
+        interactions' and, with ``boundary_conditions``, the boundary-condition groups' that exist in
+        both: their anchors, pivots, path starts and load-cell controllers) are restored
+        (``boundary_conditions=False`` when the continuation brings new boundary conditions: they
         capture their anchors afresh when they act)."""
         from knotsim.io.checkpoint import Checkpoint, check_layout, read_checkpoint
 
@@ -294,13 +292,10 @@ class Simulation:
             if mem is not None and mem is not inter.memory:
                 inter.use_memory(mem)
         self._continue_end = checkpoint.end_time
-        if boundary_conditions and self.bcs is not None:
-            self.bcs.load_state({name: checkpoint.section(f"bc/{name}") for name in self.bcs.groups},
-                                checkpoint.time)
-
-
-def _copy_sections(sections: dict[str, tuple[dict, dict]]) -> dict[str, tuple[dict, dict]]:
-    return {k: (dict(meta), {n: np.array(a, copy=True) for n, a in arrays.items()}) for k, (meta, arrays) in sections.items()}
+        if self.bcs is not None:
+            if boundary_conditions:
+                self.bcs.use_memory(self.state.memory.bc)
+            self.state.memory.bc = self.bcs.memory()  # the memories the groups took (or kept)
 
 
 def _progress_bar(total: float, progress: bool | None):

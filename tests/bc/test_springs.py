@@ -9,9 +9,10 @@ import pytest
 import knotsim as ks
 from knotsim.bc import Waypoints
 from knotsim.errors import ConfigError
+from knotsim.io.checkpoint import memory_sections, read_checkpoint
 from knotsim.io.config import load_config
 from knotsim.runspec import build_simulation
-from knotsim.solver.state import initial_state
+from knotsim.solver.state import RunMemory, initial_state
 
 L = 0.1
 
@@ -122,11 +123,12 @@ def test_run_file_forms_and_checkpointed_state(tmp_path):
     sim = build_simulation(load_config(raw))
     log = sim.run(0.1)
     assert {"cell_displacement", "side_fy", "side_anchor_y"} <= set(log.columns)
-    sections = sim.bcs.save_state()
-    assert sections["cell"][0]["u"] == pytest.approx(log["cell_displacement"].iloc[-1])
+    sections = memory_sections(sim.state.memory)
+    assert sections["bc/cell"][0]["u"] == pytest.approx(log["cell_displacement"].iloc[-1])
+    sim.save_checkpoint(tmp_path / "checkpoint.npz")
     fresh = load_config(raw).build_bcs()
-    fresh.load_state(sections, 0.1)
-    assert fresh.groups["cell"].cell.integral == sim.bcs.groups["cell"].cell.integral
+    fresh.use_memory(read_checkpoint(tmp_path / "checkpoint.npz").state(RunMemory(bc=fresh.memory())).memory.bc)
+    assert fresh.groups["cell"].cell.memory.integral == sim.bcs.groups["cell"].cell.memory.integral
     assert np.array_equal(fresh.groups["side"].anchor, sim.bcs.groups["side"].anchor)
     bad = dict(raw, bc=[dict(raw["bc"][1], ki=-1.0)])
     with pytest.raises(ConfigError) as info:

@@ -10,6 +10,7 @@ import pytest
 
 from knotsim.contact.surface_friction import RECORD_SIZE, SpinFriction, spin_friction_terms
 
+from .friction_records import random_friction_records
 from .test_surface_friction import DT, NU, evaluate, random_pair, stable
 
 K = 7.5 / NU  # K2/2
@@ -64,20 +65,7 @@ def ref_terms(dtheta, loc, record, dt, nu):
 def random_records(rng, k, slip_scale, stick=False):
     """Random pair records; ``stick``: elastic-stick records (κ > 0, the spring ``ξ = u dt`` from about
     half to twice its limit)."""
-    rec = np.zeros((k, RECORD_SIZE))
-    for p in range(k):
-        n = rng.normal(size=3)
-        n /= np.linalg.norm(n)
-        proj = np.eye(3) - np.outer(n, n)
-        rec[p, 0:3] = proj @ rng.normal(size=3) * slip_scale
-        rec[p, 3:6] = proj @ rng.normal(size=3) * 1e-3
-        rec[p, 6:9] = proj @ rng.normal(size=3) * 1e-3
-        rec[p, 9] = rng.uniform(0.01, 1.0)
-        rec[p, 10] = 1.0
-        if stick:
-            rec[p, 10] = rng.uniform(0.1, 0.6)  # μ_L
-            rec[p, 11] = rec[p, 10] / (np.linalg.norm(rec[p, 0:3]) * DT * rng.uniform(0.5, 2.0) + 1e-300)
-    return rec
+    return random_friction_records(rng, k, slip_scale, lever=1e-3, mufn_min=0.01, stick=stick, dt=DT)
 
 
 def run(dtheta, loc, rec, dt=DT, nu=NU):

@@ -319,3 +319,51 @@ def test_a_protocol_continuing_a_run_keeps_its_rope_material(tmp_path):
     _, ctx2, _, _ = build_protocol_run("overhand-pull", geometry=str(tmp_path / "a"), quick=True,
                                        overrides={"youngs_modulus": 2e6})
     assert ctx2.params["youngs_modulus"] == 2e6
+
+
+def test_grips_with_memory_continue_bit_for_bit(tmp_path):
+    """A load cell (its controller), a spring grip and a turning grip (anchors, pivot) carry their
+    memory in the state: a run of 2T and a run of T continued for T end in the same state."""
+    L = 0.1
+    table = {"rods": [{"name": "rope", "shape": "straight", "length": L, "n_nodes": 11, "radius": 1e-3,
+                       "youngs_modulus": 1e6, "density": 1000.0}],
+             "model": {"damping": 0.05},
+             "bc": [{"type": "clamp", "name": "left", "nodes": [0, 1]},
+                    {"type": "load_cell", "name": "cell", "nodes": [-2, -1], "direction": [1, 0, 0],
+                     "ramp": {"from": 0.0, "to": 0.05, "duration": 0.1}, "ki": 0.05, "kp": 1e-3, "max_speed": 0.1},
+                    {"type": "spring", "name": "side", "nodes": [5], "stiffness": 5.0, "velocity": [0, 0.01, 0]},
+                    {"type": "move", "name": "turn", "nodes": [3, 4], "velocity": [0, 0, 0.002],
+                     "rotate_about": {"axis": [0, 0, 1], "rate": 0.5}, "start": 0.03}],
+             "solver": {"dt": 2e-3}, "run": {"duration": 0.1}}
+    spec = RunSpec.from_dict(table)
+    total = 0.107  # not a multiple of dt: the half run ends with a shortened step
+    full = run(spec, tmp_path / "full", duration=total)
+    run(spec, tmp_path / "half", duration=total / 2)
+    cont = run(RunSpec.load(tmp_path / "half" / "run.toml"), tmp_path / "cont", duration=total / 2,
+               continue_from=tmp_path / "half")
+    assert cont.state.time == full.state.time
+    np.testing.assert_array_equal(cont.state.q, full.state.q)
+    np.testing.assert_array_equal(cont.state.v, full.state.v)
+    for col in ("cell_displacement", "cell_error", "side_fy", "turn_angle"):
+        assert cont.log[col].iloc[-1] == full.log[col].iloc[-1]
+
+
+def test_a_group_added_during_the_run_is_carried_and_checkpointed(tmp_path):
+    """A boundary-condition group added to a running simulation enters the state's memory at its
+    first step and is written to the checkpoint."""
+    import knotsim as ks
+    from knotsim.io.checkpoint import read_checkpoint
+
+    x = np.zeros((11, 3))
+    x[:, 0] = np.linspace(0.0, 0.1, 11)
+    model = ks.Model([ks.RodSpec(x, radius=1e-3, youngs_modulus=1e6, density=1000.0)], damping=0.05)
+    bcs = ks.BoundaryConditions(model)
+    bcs.clamp("left", nodes=[0, 1])
+    sim = ks.Simulation(model, bcs, ks.SolverOptions(dt=2e-3))
+    sim.run(0.01, progress=False)
+    bcs.hold("late", nodes=[-1])
+    sim.run(0.01, progress=False)
+    assert sim.state.memory.bc["late"] is bcs.groups["late"].memory
+    sim.save_checkpoint(tmp_path / "checkpoint.npz")
+    meta, arrays = read_checkpoint(tmp_path / "checkpoint.npz").section("bc/late")
+    assert meta["anchored"] and arrays["anchor"].shape == (1, 3)

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy.optimize import minimize
+from tests.contact.friction_records import random_friction_records
 
 from knotsim.contact.surface_friction import SpinFriction
 from knotsim.runspec import RunSpec, run
@@ -26,15 +27,7 @@ def synthetic_problem(seed, m=12, k=9, slip=1e-2):
     rng = np.random.default_rng(seed)
     a = np.diag(np.full(m, 2e-4)) + np.diag(np.full(m - 1, -1e-4), 1) + np.diag(np.full(m - 1, -1e-4), -1)
     a += np.diag(np.full(m, 1e-6))
-    rec = np.zeros((k, 10))
-    for p in range(k):
-        n = rng.normal(size=3)
-        n /= np.linalg.norm(n)
-        proj = np.eye(3) - np.outer(n, n)
-        rec[p, 0:3] = proj @ rng.normal(size=3) * slip
-        rec[p, 3:6] = proj @ rng.normal(size=3) * 2.5e-3
-        rec[p, 6:9] = proj @ rng.normal(size=3) * 2.5e-3
-        rec[p, 9] = rng.uniform(0.05, 1.0)
+    rec = random_friction_records(rng, k, slip, lever=2.5e-3, mufn_min=0.05)
     theta_dofs = 100 + np.arange(m)  # global unknowns of the angles (any numbering)
     pair_dofs = theta_dofs[rng.integers(0, m, size=(k, 2))]
     pair_dofs[0, 1] = 7  # an angle that is held (not among the relaxed ones)

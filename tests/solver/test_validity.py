@@ -190,6 +190,12 @@ class _AntiDamping:
     def describe_near(self, q, node):
         return ""
 
+    friction_model = None
+    node_field_names = ()
+
+    def node_fields(self):
+        return {}
+
 
 def _swinging_rod(interactions=()):
     model = ks.Model([_straight(0.2, 21, "rod")], gravity=(0.0, 0.0, -9.81))

@@ -2,24 +2,24 @@
 
 Each ``as_*`` converter takes ``(value, path)`` and returns the checked value or raises
 :class:`~knotsim.errors.ConfigError` whose field is ``path`` (the full key path, e.g.
-``rods[0].youngs_modulus``), with one line saying what was expected and what was given.
+``rods[0].youngs_modulus``), with one line saying what was expected and what was given. The
+checks of single numbers, flags and strings are those of :mod:`knotsim._util.validate`.
 """
 
 from __future__ import annotations
 
 import difflib
-import math
 
 import numpy as np
 
+from knotsim._util.validate import as_bool, as_integer, as_number, as_string, is_number, type_name
 from knotsim.errors import ConfigError
+
+__all__ = ["MISSING", "as_bool", "as_int_list", "as_integer", "as_number", "as_numbers", "as_points", "as_string",
+           "as_table", "as_unit", "as_vec3", "check_keys", "error_message", "get_field", "is_number", "type_name"]
 
 #: Marker for "no default: the key is required" in :func:`get_field`.
 MISSING = object()
-
-
-def type_name(value) -> str:
-    return type(value).__name__
 
 
 def check_keys(table: dict, path: str, allowed, elsewhere: dict[str, str] | None = None) -> None:
@@ -45,43 +45,6 @@ def as_table(value, path: str) -> dict:
     if not isinstance(value, dict):
         raise ConfigError(path, f"expected a table, got {value!r} ({type_name(value)})")
     return value
-
-
-def is_number(v) -> bool:
-    return isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool | np.bool_)
-
-
-def as_number(v, path: str, *, positive: bool = False, nonneg: bool = False) -> float:
-    if not is_number(v):
-        raise ConfigError(path, f"expected a number, got {v!r} ({type_name(v)})")
-    x = float(v)
-    if not math.isfinite(x):
-        raise ConfigError(path, f"expected a finite number, got {v!r}")
-    if positive and not x > 0:
-        raise ConfigError(path, f"must be positive, got {v!r}")
-    if nonneg and not x >= 0:
-        raise ConfigError(path, f"must be non-negative, got {v!r}")
-    return x
-
-
-def as_integer(v, path: str, *, minimum: int | None = None) -> int:
-    if not isinstance(v, int | np.integer) or isinstance(v, bool | np.bool_):
-        raise ConfigError(path, f"expected an integer, got {v!r} ({type_name(v)})")
-    if minimum is not None and v < minimum:
-        raise ConfigError(path, f"must be at least {minimum}, got {v!r}")
-    return int(v)
-
-
-def as_bool(v, path: str) -> bool:
-    if not isinstance(v, bool | np.bool_):
-        raise ConfigError(path, f"expected true or false, got {v!r} ({type_name(v)})")
-    return bool(v)
-
-
-def as_string(v, path: str) -> str:
-    if not isinstance(v, str):
-        raise ConfigError(path, f"expected a string, got {v!r} ({type_name(v)})")
-    return v
 
 
 def as_numbers(v, path: str, shape: tuple | None = None) -> np.ndarray:

@@ -7,7 +7,6 @@ file replays a run exactly).
 
 from __future__ import annotations
 
-import math
 import os
 import re
 import tomllib
@@ -17,6 +16,7 @@ from typing import Any
 import numpy as np
 import tomli_w
 
+from knotsim._util.validate import no_nan
 from knotsim.errors import ConfigError
 
 __all__ = ["dumps_toml", "load_toml", "loads_toml", "to_toml_value", "write_toml"]
@@ -71,7 +71,7 @@ def dumps_toml(data: dict, header: str = "") -> str:
     ``header`` is written first as ``#`` comment lines. Floats round-trip exactly; infinities are
     written as ``inf``; ``None`` values are left out."""
     clean = to_toml_value(data)
-    _check_finite(clean, "")
+    no_nan(clean, "")
     text = _compact_arrays(tomli_w.dumps(clean, multiline_strings=False))
     if header:
         text = "".join(f"# {line}".rstrip() + "\n" for line in header.splitlines()) + "\n" + text
@@ -100,14 +100,3 @@ def write_toml(path: str | os.PathLike, data: dict, header: str = "") -> Path:
     tmp.write_text(dumps_toml(data, header), encoding="utf-8")
     os.replace(tmp, p)
     return p
-
-
-def _check_finite(value: Any, where: str) -> None:
-    if isinstance(value, float) and math.isnan(value):
-        raise ConfigError(where or "config", "NaN cannot be written to a run file")
-    if isinstance(value, dict):
-        for k, v in value.items():
-            _check_finite(v, f"{where}.{k}" if where else k)
-    elif isinstance(value, list):
-        for i, v in enumerate(value):
-            _check_finite(v, f"{where}[{i}]")

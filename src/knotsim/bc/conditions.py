@@ -32,6 +32,7 @@ from knotsim.bc.paths import as_path
 from knotsim.bc.rigid import as_rotation
 from knotsim.errors import ConfigError
 from knotsim.rods.model import expand_indices
+from knotsim.solver.state import GroupMemory
 
 _NO_DOFS = np.zeros(0, np.int64)
 
@@ -356,47 +357,37 @@ class BoundaryConditions(GripMethods):
             self._feedback_log(g, r, residual, t)
         return out
 
-    def save_state(self) -> dict[str, tuple[dict, dict]]:
-        """Anchors captured by the prescribed groups, by group name: ``(scalars, arrays)`` for
-        :mod:`knotsim.io.checkpoint` (a group that has not captured one saves an empty section)."""
-        out = {}
-        for g in self.groups.values():
-            if not (g.prescribed or g.kind == GroupKind.SPRING):
-                continue
-            extra = g.cell.save() if g.cell is not None else {}
-            if g.anchor is None:
-                out[g.name] = ({"anchored": False, **extra}, {})
-                continue
-            arrays = {"anchor": g.anchor}
-            if g.anchor_theta is not None:
-                arrays["anchor_theta"] = g.anchor_theta
-            if g.pivot is not None:
-                arrays["pivot"] = g.pivot
-            bound = g.path.bound_state() if g.path is not None else None
-            if bound is not None:
-                arrays["path_start"] = bound
-            out[g.name] = ({"anchored": True, "anchor_time": float(g.anchor_time), **extra}, arrays)
-        return out
+    def memory(self) -> dict[str, GroupMemory]:
+        """The run memory of the groups that capture one (prescribed and spring groups), by name: the
+        objects the groups use (a :class:`~knotsim.simulation.Simulation` carries them in
+        ``state.memory.bc``; :mod:`knotsim.io.checkpoint` writes them)."""
+        return {g.name: g.memory for g in self.groups.values() if g.prescribed or g.kind == GroupKind.SPRING}
 
-    def load_state(self, sections: dict[str, tuple[dict, dict]], time: float) -> None:
-        """Restore anchors saved by :meth:`save_state` (at simulation time ``time``, s). Groups that
-        were not saved, or whose node count differs, capture their anchors afresh when they act."""
-        for name, (meta, arrays) in sections.items():
+    def use_memory(self, memory: dict[str, GroupMemory]) -> None:
+        """Continue from the group memories ``memory`` (by group name, e.g. restored from a
+        checkpoint). A group takes the one of its name when it is prescribed or a spring and the
+        memory holds an anchor of its node count; the others keep their own (they capture their
+        anchors afresh when they act)."""
+        for name, mem in memory.items():
             g = self.groups.get(name)
-            if g is None or not (g.prescribed or g.kind == GroupKind.SPRING) or not meta.get("anchored"):
+            if g is None or mem is g.memory or not (g.prescribed or g.kind == GroupKind.SPRING):
                 continue
-            anchor = np.array(arrays["anchor"], float)
-            if anchor.shape != (len(g.nodes), 3):
-                continue
-            g.anchor = anchor
-            g.anchor_theta = np.array(arrays["anchor_theta"], float) if "anchor_theta" in arrays else None
-            g.anchor_time = float(meta["anchor_time"])
-            if g.cell is not None:
-                g.cell.load(meta)
-            if "pivot" in arrays:
-                g.pivot = np.array(arrays["pivot"], float)
-            if g.path is not None and "path_start" in arrays:
-                g.path.bind(np.array(arrays["path_start"], float))
+            if mem.anchor is not None and mem.anchor.shape == (len(g.nodes), 3):
+                g.use_memory(mem)
+
+    def begin_step(self, state_in) -> None:
+        """Before a step from ``state_in``: each group that captures a memory takes the one
+        ``state_in`` carries under its name (``state_in.memory.bc``) when it is another object than
+        its own (a restored run), or enters its own there when the state carries none (also a
+        group added after the run started)."""
+        carried = state_in.memory.bc
+        for g in self.groups.values():
+            if g.prescribed or g.kind == GroupKind.SPRING:
+                mem = carried.get(g.name)
+                if mem is None:
+                    carried[g.name] = g.memory
+                elif mem is not g.memory:
+                    g.use_memory(mem)
 
     def reset(self) -> None:
         """Forget captured anchors (before re-running from the initial state)."""

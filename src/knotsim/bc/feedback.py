@@ -27,9 +27,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+
+from knotsim.solver.state import LoadCellMemory
 
 
 def michell_twist(rod) -> float:
@@ -67,55 +69,40 @@ class LoadCell:
     """A grip moved along ``direction (3,)`` (unit) by ``u`` (m) so that the reaction force along
     ``direction`` follows ``target(elapsed)`` (N): ``u_cmd = kp e + ki ∫ e dt`` with the error
     ``e = target - F`` (N) measured after every accepted step (gains ``kp`` m/N, ``ki`` m/(N s)); the
-    next step moves the grip to ``u_cmd``, at most ``max_speed`` (m/s) fast."""
+    next step moves the grip to ``u_cmd``, at most ``max_speed`` (m/s) fast. The controller's
+    numbers are its run memory (:class:`~knotsim.solver.state.LoadCellMemory`)."""
 
     direction: np.ndarray
     target: Callable[[float], np.ndarray]
     kp: float
     ki: float
     max_speed: float
-    u: float = 0.0          # displacement (m) at the last accepted step
-    u_cmd: float = 0.0      # commanded displacement (m) for the next step
-    integral: float = 0.0   # ∫ e dt (N s)
-    force: float = 0.0      # measured force along direction (N) at the last accepted step
-    error: float = 0.0      # target - force (N)
-    t_last: float | None = None  # time of the last accepted step (s)
-    u_step: float = 0.0     # displacement prescribed in the current step (m)
+    #: the controller's state (part of the group's :class:`~knotsim.solver.state.GroupMemory`)
+    memory: LoadCellMemory = field(default_factory=LoadCellMemory, repr=False, compare=False)
 
     def displacement(self, t: float, t_in: float) -> float:
         """Displacement (m) prescribed at the end ``t`` of a step starting at ``t_in``."""
-        du = self.u_cmd - self.u
+        m = self.memory
+        du = m.u_cmd - m.u
         if math.isfinite(self.max_speed):
             lim = self.max_speed * max(t - t_in, 0.0)
             du = min(max(du, -lim), lim)
-        self.u_step = self.u + du
-        return self.u_step
+        m.u_step = m.u + du
+        return m.u_step
 
     def update(self, t: float, start: float, force: float) -> None:
         """After an accepted step ending at ``t`` (s) with measured ``force`` (N) along the direction."""
+        m = self.memory
         target = float(self.target(t - start))
-        dt = t - (self.t_last if self.t_last is not None else start)
-        self.force = force
-        self.error = target - force
-        self.integral += self.error * max(dt, 0.0)
-        self.u = self.u_step
-        self.u_cmd = self.kp * self.error + self.ki * self.integral
-        self.t_last = t
+        dt = t - (m.t_last if m.t_last is not None else start)
+        m.force = force
+        m.error = target - force
+        m.integral += m.error * max(dt, 0.0)
+        m.u = m.u_step
+        m.u_cmd = self.kp * m.error + self.ki * m.integral
+        m.t_last = t
 
     def reset(self) -> None:
-        self.u = self.u_cmd = self.integral = self.force = self.error = self.u_step = 0.0
-        self.t_last = None
-
-    _SAVED = ("u", "u_cmd", "integral", "force", "error", "u_step")
-
-    def save(self) -> dict:
-        out = {k: float(getattr(self, k)) for k in self._SAVED}
-        out["t_last"] = -1.0 if self.t_last is None else float(self.t_last)
-        return out
-
-    def load(self, meta: dict) -> None:
-        for k in self._SAVED:
-            if k in meta:
-                setattr(self, k, float(meta[k]))
-        t_last = float(meta.get("t_last", -1.0))
-        self.t_last = None if t_last < 0 else t_last
+        m = self.memory
+        m.u = m.u_cmd = m.integral = m.force = m.error = m.u_step = 0.0
+        m.t_last = None

@@ -11,6 +11,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from knotsim._util.validate import number
 from knotsim.bc.feedback import LoadCell, RingCut
 from knotsim.bc.group import Group, GroupKind, _as_load
 from knotsim.bc.paths import as_path
@@ -115,9 +116,7 @@ class GripMethods:
             v = default if v is None else v
             if v is None:
                 raise ConfigError(f"bc.{name}.ki", "missing required field: the integral gain in m/(N s)")
-            if not (isinstance(v, int | float) and not isinstance(v, bool) and v >= 0 and not math.isnan(v)):
-                raise ConfigError(f"bc.{name}.{key}", f"must be a number >= 0, got {v!r}")
-            gains[key] = float(v)
+            gains[key] = number(v, f"bc.{name}.{key}", at_least=0.0, infinite=True, must="be a number >= 0")
         if gains["ki"] == 0.0 and gains["kp"] == 0.0:
             raise ConfigError(f"bc.{name}.ki", "ki and kp are both 0: the grip would never move")
         load = _as_load(name, target, ())
@@ -125,6 +124,7 @@ class GripMethods:
         grp = Group(name, GroupKind.LOAD_CELL, r, g, self._edges_within(g) if twist else np.zeros(0, np.int64), start, stop,
                     fix_twist=twist)
         grp.cell = LoadCell(d / np.linalg.norm(d), load, gains["kp"], gains["ki"], gains["max_speed"])
+        grp.memory.cell = grp.cell.memory
         return self._add(grp)
 
     def interactions(self) -> list:
@@ -168,6 +168,7 @@ class GripMethods:
         centroid = g.anchor.mean(axis=0)
         if g.path is not None:
             g.path.bind(centroid)
+            g.memory.path_start = g.path.bound_state()
             if g.path.absolute_start is not None:
                 self._check_path_start(g, centroid)
         if g.rotation is not None:
@@ -181,6 +182,7 @@ class GripMethods:
             g.anchor = q_in[m.node_dof[g.nodes][:, None] + np.arange(3)[None, :]].copy()
             g.anchor_time = t_in
             g.path.bind(g.anchor.mean(axis=0))
+            g.memory.path_start = g.path.bound_state()
             if g.path.absolute_start is not None:
                 self._check_path_start(g, g.anchor.mean(axis=0))
         disp = g.path(t - g.start) - g.path(max(g.anchor_time - g.start, 0.0))
@@ -253,9 +255,9 @@ class GripMethods:
             c = g.cell
             if r is not None:
                 c.update(t, g.start, float(np.dot(r[:3], c.direction)))
-            self.log_values[f"{g.name}_displacement"] = c.u
+            self.log_values[f"{g.name}_displacement"] = c.memory.u
             self.log_values[f"{g.name}_target"] = float(c.target(max(t - g.start, 0.0)))
-            self.log_values[f"{g.name}_error"] = c.error
+            self.log_values[f"{g.name}_error"] = c.memory.error
         if g.rotation is not None:
             mom = np.zeros(3)
             if r is not None and g.current is not None:

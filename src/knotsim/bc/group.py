@@ -14,6 +14,7 @@ from knotsim.bc.feedback import LoadCell, RingCut
 from knotsim.bc.paths import Path
 from knotsim.bc.rigid import Rotation
 from knotsim.errors import ConfigError
+from knotsim.solver.state import GroupMemory, LoadCellMemory, memory_field
 
 __all__ = ["Group", "GroupKind"]
 
@@ -56,14 +57,10 @@ class Group:
     path: Path | None = None
     twist_angle: Callable[[float], float] | None = None
     load: Callable[[float], np.ndarray] | None = None
-    anchor: np.ndarray | None = field(default=None, repr=False)
-    anchor_theta: np.ndarray | None = field(default=None, repr=False)
-    anchor_time: float = 0.0
     #: (3,) bool: the coordinates (x, y, z) the group prescribes (all three except for ``pin``)
     axes: np.ndarray = field(default_factory=lambda: np.ones(3, np.bool_))
-    #: a turning grip's rotation and its pivot (m) captured at activation
+    #: a turning grip's rotation (its pivot is captured at activation: :attr:`pivot`)
     rotation: Rotation | None = None
-    pivot: np.ndarray | None = field(default=None, repr=False)
     #: spring grips: total stiffness (N/m) and the anchor points (n, 3) m at the current time
     stiffness: float = 0.0
     target: np.ndarray | None = field(default=None, repr=False)
@@ -73,9 +70,29 @@ class Group:
     current: tuple | None = field(default=None, repr=False)
     #: the group's unknowns, worked out at its first evaluation (:class:`_Plan`)
     plan: _Plan | None = field(default=None, repr=False, compare=False)
+    #: what the group captured when it became active (run memory, carried by the state as
+    #: ``state.memory.bc[name]``; :attr:`anchor`, :attr:`anchor_theta`, :attr:`anchor_time` and
+    #: :attr:`pivot` read and write it)
+    memory: GroupMemory = field(default_factory=GroupMemory, repr=False, compare=False)
+
+    anchor = memory_field("anchor", "(n, 3) positions (m) the group prescribes from, or ``None``")
+    anchor_theta = memory_field("anchor_theta", "(e,) edge angles (rad) it prescribes from, or ``None``")
+    anchor_time = memory_field("anchor_time", "time (s) the anchor was captured")
+    pivot = memory_field("pivot", "(3,) a turning grip's pivot (m) captured at activation, or ``None``")
 
     def __post_init__(self):
         self.kind = GroupKind(self.kind)
+
+    def use_memory(self, memory: GroupMemory) -> None:
+        """Continue from ``memory`` (e.g. restored from a checkpoint): make it :attr:`memory`, hand
+        its controller to the load cell and bind the path to its start point."""
+        self.memory = memory
+        if self.cell is not None:
+            if memory.cell is None:
+                memory.cell = LoadCellMemory()
+            self.cell.memory = memory.cell
+        if self.path is not None and memory.path_start is not None:
+            self.path.bind(np.array(memory.path_start, float))
 
     @property
     def prescribed(self) -> bool:

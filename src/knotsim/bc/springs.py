@@ -140,6 +140,13 @@ class BCInteraction:
         :mod:`knotsim.solver.spin_relaxation`)."""
         return None
 
+    #: no friction, no per-node output
+    friction_model = None
+    node_field_names: tuple[str, ...] = ()
+
+    def node_fields(self) -> dict:
+        return {}
+
     def stats(self) -> dict:
         out = {}
         for g in self.springs:

@@ -8,7 +8,6 @@ from __future__ import annotations
 import importlib
 import json
 import math
-import time
 from pathlib import Path
 
 import click
@@ -44,7 +43,7 @@ def run(config: Path | None, outdir: Path | None, overwrite: bool, from_dir: Pat
         quiet: bool):
     """Run the simulation described by CONFIG (a run file, see docs/run-files.md), or continue --from DIR."""
     from knotsim.errors import ConfigError
-    from knotsim.runspec import RunSpec, build_run, check_run
+    from knotsim.runspec import RunSpec, build_run, check_run, run_simulation
 
     if config is None:
         if from_dir is None:
@@ -60,24 +59,22 @@ def run(config: Path | None, outdir: Path | None, overwrite: bool, from_dir: Pat
     outdir = prepare_output(outdir, default, overwrite)
     announce_compile(contact=cfg.contact, topology=False, obstacles=cfg.obstacles_builder is not None)
     sim, cfg = build_run(cfg, continue_from=from_dir)
-    wall0 = time.perf_counter()
-    try:
-        log = sim.run(cfg.duration, output_dir=outdir, output_interval=cfg.output_interval,
-                      progress=False if quiet else None)
-    except SimulationError as exc:
+    outcome = run_simulation(sim, cfg.duration, outdir, output_interval=cfg.output_interval,
+                             progress=False if quiet else None)
+    exc = outcome.error
+    if exc is not None:
         raise SimulationError(f"{exc} (partial output written to {outdir})",
                               last_good_state=exc.last_good_state, time=exc.time) from exc
     if not quiet:
-        click.echo(_run_summary(sim, log, time.perf_counter() - wall0, outdir))
+        click.echo(_run_summary(sim, outcome, outdir))
 
 
-def _run_summary(sim, log, wall: float, outdir: Path) -> str:
+def _run_summary(sim, outcome, outdir: Path) -> str:
     """One paragraph: steps, Newton iterations per step, wall time, final reactions."""
+    log = outcome.log
     steps = len(log)
-    iters = float(log["iterations"].mean()) if steps else 0.0
     t = float(sim.state.time)
-    parts = [f"Simulated {t:.4g} s in {steps} steps ({sim.n_failures} step failures, "
-             f"{iters:.2f} Newton iterations per step), wall time {wall:.2f} s."]
+    parts = [f"Simulated {outcome.describe()}."]
     reactions = []
     if steps and sim.bcs is not None:
         last = log.iloc[-1]

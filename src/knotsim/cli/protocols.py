@@ -52,6 +52,8 @@ def _fmt(v) -> str:
 
 
 def _print_summary(s: dict, proto: str, quick: bool, outdir: Path) -> None:
+    from knotsim.runspec import run_line
+
     for note in s.get("notes") or ():
         click.echo(f"note: {note}")
     click.echo(f"{s['knot']} ({proto}{', quick' if quick else ''}): {s['outcome']}")
@@ -62,7 +64,7 @@ def _print_summary(s: dict, proto: str, quick: bool, outdir: Path) -> None:
     c = s["contact"]
     click.echo(f"  worst penetration: {c['worst_penetration_ratio']:.3g} h; contacts/step "
                f"{_fmt(c['mean_contacts'])} (max {_fmt(c['max_contacts'])})")
-    click.echo(f"  {s['n_steps']} steps over {s['sim_time']:.4g} s in {s['wall_time']:.1f} s wall; "
+    click.echo(f"  {run_line(s['n_steps'], s['sim_time'], s['wall_time'], s['failed_attempts'], s['newton_iterations'])}; "
                f"{s['run_status']}")
     click.echo(f"  summary: {outdir / 'summary.json'}")
 
@@ -228,10 +230,12 @@ def tie(sequence: str | None, outdir: Path | None, overwrite: bool, list_: bool,
     tying_sequence_path(sequence)  # an unknown name is an error before any note
     outdir = prepare_output(outdir, default_dir("tie", sequence), overwrite)
     announce_compile(contact=True)
+    from knotsim.runspec import run_line
+
     res = tie_from_straight(sequence, out_dir=outdir, progress=progress)
     verdict = "as intended" if res.ok else f"NOT the intended {' or '.join(res.expected)}"
     click.echo(f"{sequence}: tied a {res.knot_type} ({verdict})")
-    click.echo(f"  {res.steps} steps over {res.sim_time:.4g} s in {res.wall_time:.1f} s wall; worst penetration "
+    click.echo(f"  {run_line(res.steps, res.sim_time, res.wall_time)}; worst penetration "
                f"{res.max_penetration_ratio:.3g} h")
     if res.half_knot is not None:  # reef / granny: the rope between the two half-knots
         g = res.half_knot

@@ -31,7 +31,8 @@ radius of the model (m) and ``F_max`` (N) the largest of
 ``k_c`` jumps up to ``k_target`` at once and relaxes down towards it with an exponential moving
 average (weight ``STIFFNESS_RELAX`` per step); it never drops below ``stiffness_floor`` (default
 ``stiffness_scaler × (largest node mass × 1 m/s²) / h_min``) nor below ``stiffness`` when that is
-given. A step rejected for penetration multiplies ``k_c`` by ``PENETRATION_BOOST`` before the retry.
+given. A step rejected for penetration multiplies ``k_c`` by ``PENETRATION_BOOST`` before the retry
+(the policy is :mod:`knotsim.contact.stiffness`, shared with the obstacles).
 
 With ``stiffness_scaler = 500`` the most loaded contact rests with ``k_c E'(Δ) = F_max``, at a gap
 ``Δ − d ≈ (δ/30) ln(stiffness_scaler δ / (7.5 h_min))`` (≈ 50 µm for ``h = 1.6 mm``,
@@ -62,18 +63,16 @@ from knotsim.contact.assembly import (
 from knotsim.contact.broadphase import find_candidate_pairs, node_drift
 from knotsim.contact.options import ContactOptions, StiffnessMode
 from knotsim.contact.stick import StickHistory
+from knotsim.contact.stiffness import AdaptiveStiffness, default_floor
 from knotsim.contact.surface_friction import RECORD_SIZE, SpinFriction
 from knotsim.contact.swept import pass_through, swept_box_pairs
 from knotsim.errors import ConfigError
 from knotsim.geometry import exclusion
 from knotsim.solver._kernels import same_values
+from knotsim.solver.state import memory_field
 
 #: Largest IMC tolerance δ accepted, in units of the smallest rod radius.
 MAX_DELTA_RADII = 2.0
-#: Weight of the new target in the downward moving average of the adaptive stiffness (per step).
-STIFFNESS_RELAX = 0.02
-#: Factor applied to the adaptive stiffness after a step rejected for penetration.
-PENETRATION_BOOST = 4.0
 #: The pair list is rebuilt when the node drift (see the module docstring) exceeds this fraction of
 #: ``margin`` since the last build.
 REBUILD_FRACTION = 0.5
@@ -108,15 +107,8 @@ class ContactMemory:
     stick_sliding: np.ndarray | None = None
 
 
-def _memory_field(name: str, doc: str) -> property:
-    """An attribute of :class:`Contact` kept in its run memory (:class:`ContactMemory`)."""
-    def get(self):
-        return getattr(self.memory, name)
-
-    def set_(self, value):
-        setattr(self.memory, name, value)
-
-    return property(get, set_, doc=doc)
+#: an attribute of :class:`Contact` kept in its run memory (:class:`ContactMemory`)
+_memory_field = memory_field
 
 
 
@@ -190,10 +182,12 @@ class Contact:
         if s.stiffness_floor is not None:
             floor = s.stiffness_floor
         else:
-            floor = s.stiffness_scaler * float(np.max(node_mass)) * 1.0 / self.h_min
+            floor = default_floor(s.stiffness_scaler, float(np.max(node_mass)), self.h_min)
         if s.stiffness is not None:
             floor = max(floor, s.stiffness) if s.stiffness_mode == "adaptive" else s.stiffness
         self.k_floor = floor
+        #: the adaptive stiffness policy (:mod:`knotsim.contact.stiffness`)
+        self._stiffness = AdaptiveStiffness(s.stiffness_scaler, self.h_min, floor)
         self.k_c = (s.stiffness if s.stiffness_mode == "constant"
                     else max(floor, s.initial_stiffness) if s.initial_stiffness is not None else floor)
         self._fmax_accepted = 0.0
@@ -317,22 +311,14 @@ class Contact:
             self.stick.inherit(self.memory, self.pairs)
         self.timers["broad_phase"] += time.perf_counter() - t0
         if s.stiffness_mode == "adaptive":
-            t1 = time.perf_counter()
-            k = self.pair_dofs.shape[0]
-            # the impact estimate uses the largest step seen, not the current attempt's: a step retried
-            # with dt/2 must not double the stiffness (which would make every retry harder)
-            self._dt_ref = max(self._dt_ref, dt)
-            f_imp = (approach_forces(q, state_in.v, self._dt_ref, self.pair_dofs, self.pair_d, s.delta, m.mass)
-                     if k else 0.0)
-            self.timers["narrow_phase"] += time.perf_counter() - t1
-            fmax = max(self._fmax_accepted, f_imp)
-            if fmax > 0.0:
-                target = s.stiffness_scaler * fmax / self.h_min
-                if target > self.k_c:
-                    self.k_c = target
-                else:
-                    self.k_c += STIFFNESS_RELAX * (target - self.k_c)
-            self.k_c = max(self.k_c, self.k_floor)
+            def impact_force(dt_ref: float) -> float:
+                t1 = time.perf_counter()
+                f = (approach_forces(q, state_in.v, dt_ref, self.pair_dofs, self.pair_d, s.delta, m.mass)
+                     if self.pair_dofs.shape[0] else 0.0)
+                self.timers["narrow_phase"] += time.perf_counter() - t1
+                return f
+
+            self._stiffness.update(self.memory, dt, impact_force)
 
     def _set_pairs(self, pairs) -> None:
         m = self.model
@@ -483,7 +469,7 @@ class Contact:
         if k:
             if ratio > s.penetration_limit:
                 if s.stiffness_mode == "adaptive":
-                    self.k_c *= PENETRATION_BOOST
+                    self._stiffness.penetrated(self.memory)
                 a, b = self.pairs[worst]
                 return (f"contact penetration {ratio:.3g} x radius between edges {a} and {b} exceeds "
                         f"penetration_limit {s.penetration_limit}")
@@ -594,12 +580,29 @@ class Contact:
         ≥ 0), ``contact_force_total`` and ``friction_force_total`` (N, half the sum of nodal force
         magnitudes), ``k_c`` (N/m)."""
         # the stepper asks for stats only for an accepted step: its contact force drives k_c
-        self._fmax_accepted = self._fmax_pending
+        self._stiffness.accepted(self.memory, self._fmax_pending)
         self._ev_accepted = self._ev_pending
         if self.stick is not None:
             self.stick.accept(self.memory, self._ev_pending[3], self._dt)
             self._stats.update(self.stick.stats(self.memory, self._ev_pending[3]))
         return dict(self._stats)
+
+    @property
+    def friction_model(self) -> str:
+        """The friction law (``"surface"`` or ``"centreline"``)."""
+        return str(self.options.friction_model)
+
+    @property
+    def node_field_names(self) -> tuple[str, ...]:
+        """The contact and friction force per node, and with surface friction the slip and rolling
+        speeds (:meth:`node_forces`, :meth:`node_slip`)."""
+        return ("contact_force", "friction_force", *(("slip_speed", "rolling_speed") if self.surface_friction else ()))
+
+    def node_fields(self) -> dict[str, np.ndarray]:
+        out = dict(zip(("contact_force", "friction_force"), self.node_forces(), strict=True))
+        if self.surface_friction:
+            out["slip_speed"], out["rolling_speed"] = self.node_slip()
+        return out
 
     def node_forces(self) -> tuple[np.ndarray, np.ndarray]:
         """``(contact, friction)``: ``(n_nodes,)`` magnitudes (N) of the net contact (normal) and

@@ -67,21 +67,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from knotsim._util.validate import number
 from knotsim.bc.paths import Path, as_path
 from knotsim.contact.obstacle_kernels import CAPSULE, PLANE, SPHERE, obstacle_evaluate
 from knotsim.contact.obstacle_surface_kernels import STENCIL, obstacle_surface_evaluate, spin_update
 from knotsim.contact.obstacle_swept import NODE, describe, first_pass_through, obstacle_edges
 from knotsim.contact.stick import return_map, spring_arrays
+from knotsim.contact.stiffness import AdaptiveStiffness, default_floor
 from knotsim.errors import ConfigError, GeometryError
+from knotsim.solver.state import memory_field
 
 __all__ = ["Capsule", "Obstacle", "ObstacleMemory", "Plane", "Sphere", "rotation_matrix"]
 
-#: Weight of the new target in the downward moving average of the adaptive stiffness (per step).
-STIFFNESS_RELAX = 0.02
 #: Values of ``friction_model``.
 FRICTION_MODELS = ("surface", "centreline")
-#: Factor applied to an adaptive stiffness after a step rejected for penetration.
-PENETRATION_BOOST = 4.0
 
 
 @dataclass
@@ -103,13 +102,7 @@ class ObstacleMemory:
 
 
 def _memory_field(name: str) -> property:
-    def get(self):
-        return getattr(self.memory, name)
-
-    def set_(self, value):
-        setattr(self.memory, name, value)
-
-    return property(get, set_, doc=f"``{name}`` of the run memory (:class:`ObstacleMemory`)")
+    return memory_field(name, f"``{name}`` of the run memory (:class:`ObstacleMemory`)")
 
 
 _NO_SPIN = np.zeros(3)
@@ -141,12 +134,8 @@ def _vec3(field: str, value) -> np.ndarray:
 
 
 def _number(field: str, value, allow_zero: bool = False) -> float:
-    ok = isinstance(value, int | float | np.floating | np.integer) and not isinstance(value, bool)
-    ok = ok and math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
-    if not ok:
-        kind = "non-negative" if allow_zero else "positive"
-        raise ConfigError(field, f"must be a {kind} finite number, got {value!r}")
-    return float(value)
+    return (number(value, field, at_least=0.0, must="be a non-negative finite number") if allow_zero
+            else number(value, field, above=0.0, must="be a positive finite number"))
 
 
 def node_stencils(model, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -279,7 +268,10 @@ class Obstacle:
         self._sweep_scratch = np.zeros(self.nodes.size)
         self._step_start = self._pose_accepted = None
         self._still = np.zeros(3)
-        self.k_floor = self.stiffness_scaler * (float(np.max(self.node_mass)) if self.nodes.size else 0.0) / self.h_min
+        self.k_floor = default_floor(self.stiffness_scaler, float(np.max(self.node_mass)) if self.nodes.size else 0.0,
+                                     self.h_min)
+        #: the adaptive stiffness policy (:mod:`knotsim.contact.stiffness`; used without ``stiffness``)
+        self._stiffness = AdaptiveStiffness(self.stiffness_scaler, self.h_min, self.k_floor)
         self.k_c = self.stiffness if self.stiffness is not None else self.k_floor
         self._fmax_accepted = 0.0
         self._fmax_pending = 0.0
@@ -387,13 +379,7 @@ class Obstacle:
         self._set_pose(state_in.time + dt, dt)
         if self.stiffness is not None or not self.nodes.size:
             return
-        self._dt_ref = max(self._dt_ref, dt)
-        f_imp = self._impact_force(state_in)
-        fmax = max(self._fmax_accepted, f_imp)
-        if fmax > 0.0:
-            target = self.stiffness_scaler * fmax / self.h_min
-            self.k_c = target if target > self.k_c else self.k_c + STIFFNESS_RELAX * (target - self.k_c)
-        self.k_c = max(self.k_c, self.k_floor)
+        self._stiffness.update(self.memory, dt, lambda dt_ref: self._impact_force(state_in))
 
     def _impact_force(self, state_in) -> float:
         """Largest ``mass × approach speed / dt`` (N) of the nodes within ``δ`` + one step of travel."""
@@ -473,7 +459,7 @@ class Obstacle:
         self._stats = self._summary(q)
         if ratio[i] > self.penetration_limit:
             if self.stiffness is None:
-                self.k_c *= PENETRATION_BOOST
+                self._stiffness.penetrated(self.memory)
             m = self.model
             n = int(self.nodes[i])
             rod = int(m.node_rod[n])
@@ -506,7 +492,7 @@ class Obstacle:
         if code == 0:
             return None
         if code == NODE and self.stiffness is None:
-            self.k_c *= PENETRATION_BOOST
+            self._stiffness.penetrated(self.memory)
         return describe(self, code, i, s, value, t0, dt)
 
     def check_start(self, q) -> None:
@@ -555,7 +541,7 @@ class Obstacle:
         """Reaction force (N) and moment (N m) on the obstacle and contact numbers of the last accepted
         step (see the module doc); a free-spinning obstacle's spin is advanced here, once per accepted
         step, and logged at the step's end."""
-        self._fmax_accepted = self._fmax_pending
+        self._stiffness.accepted(self.memory, self._fmax_pending)
         self._pose_accepted = (self._time, self._geom, self._cen)
         out = dict(self._stats)
         if self.stick and self.nodes.size:  # the springs of the accepted step (its last evaluation)
@@ -622,6 +608,12 @@ class Obstacle:
             mem.spin = None
         elif mem.spin is not None:
             mem.spin = np.array(mem.spin, float)
+
+    #: no per-node output (the reaction is logged by :meth:`stats`)
+    node_field_names: tuple[str, ...] = ()
+
+    def node_fields(self) -> dict[str, np.ndarray]:
+        return {}
 
     def untracked_sources(self) -> list[str]:
         """None: :meth:`supplied_work` counts the work of the obstacle's motion."""

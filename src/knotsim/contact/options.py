@@ -2,24 +2,18 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, fields
 from enum import StrEnum
 
-import numpy as np
-
+from knotsim._util.validate import choice, flag, number
 from knotsim.errors import ConfigError
 
 __all__ = ["ContactOptions", "FrictionModel", "StiffnessMode"]
 
 
 def _positive(name: str, value, allow_zero: bool = False) -> float:
-    ok = isinstance(value, int | float | np.floating | np.integer) and not isinstance(value, bool)
-    ok = ok and math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
-    if not ok:
-        kind = "non-negative" if allow_zero else "positive"
-        raise ConfigError(f"contact.{name}", f"must be a {kind} finite number, got {value!r}")
-    return float(value)
+    return (number(value, f"contact.{name}", at_least=0.0, must="be a non-negative finite number") if allow_zero
+            else number(value, f"contact.{name}", above=0.0, must="be a positive finite number"))
 
 
 def _coefficient(name: str, value) -> float | dict:
@@ -149,11 +143,8 @@ class ContactOptions:
         self.mu = _coefficient("mu", self.mu)
         if self.mu_static is not None:
             self.mu_static = _coefficient("mu_static", self.mu_static)
-        try:
-            self.stiffness_mode = StiffnessMode(self.stiffness_mode)
-        except ValueError:
-            raise ConfigError("contact.stiffness_mode",
-                              f"must be 'adaptive' or 'constant', got {self.stiffness_mode!r}") from None
+        self.stiffness_mode = choice(self.stiffness_mode, "contact.stiffness_mode", StiffnessMode,
+                                     must="be 'adaptive' or 'constant'")
         if self.stiffness is not None:
             self.stiffness = _positive("stiffness", self.stiffness)
         elif self.stiffness_mode == "constant":
@@ -163,11 +154,8 @@ class ContactOptions:
             self.stiffness_floor = _positive("stiffness_floor", self.stiffness_floor)
         if self.initial_stiffness is not None:
             self.initial_stiffness = _positive("initial_stiffness", self.initial_stiffness)
-        try:
-            self.friction_model = FrictionModel(self.friction_model)
-        except ValueError:
-            raise ConfigError("contact.friction_model",
-                              f"must be 'surface' or 'centreline', got {self.friction_model!r}") from None
+        self.friction_model = choice(self.friction_model, "contact.friction_model", FrictionModel,
+                                     must="be 'surface' or 'centreline'")
         self.margin = _positive("margin", self.margin, allow_zero=True)
         self.penetration_limit = _positive("penetration_limit", self.penetration_limit)
         self.parallel_smoothing = _positive("parallel_smoothing", self.parallel_smoothing, allow_zero=True)
@@ -185,6 +173,5 @@ class ContactOptions:
         elif self.mu_static is not None:
             raise ConfigError("contact.mu_static", "static friction needs the elastic-stick law: set "
                               "contact.stick_distance (m), e.g. 1e-5, or remove mu_static")
-        if not isinstance(self.self_contact, bool | np.bool_):
-            raise ConfigError("contact.self_contact", f"must be true or false, got {self.self_contact!r}")
+        flag(self.self_contact, "contact.self_contact")
 

@@ -10,9 +10,9 @@ A checkpoint holds
   policy's (current step, easy-step count, retry cool-down, failures so far), the validity guards'
   and each interaction's (contact: stiffness ``k_c``, the force driving it, the Verlet pair list
   and the positions it was built at; an interaction's memory is a dataclass of numbers and arrays,
-  written field by field);
-- each boundary-condition group's captured anchor (positions and angles it prescribes from, the
-  time they were captured, and the start point of a ``from_current`` path);
+  written field by field) and each boundary-condition group's (the positions and angles it
+  prescribes from, the time they were captured, a turning grip's pivot, the start point of a
+  ``from_current`` path, a load cell's controller: :class:`~knotsim.solver.state.GroupMemory`);
 - the model's layout (rod names, node and edge counts, closed flags, radii), checked on restore.
 
 When the run's last step was shortened to land on the requested end time, the checkpoint holds
@@ -41,7 +41,9 @@ from knotsim._version import __version__
 from knotsim.errors import ConfigError
 from knotsim.solver.state import (
     DriverMemory,
+    GroupMemory,
     JacobianMemory,
+    LoadCellMemory,
     PredictorMemory,
     RunMemory,
     State,
@@ -148,8 +150,8 @@ def write_checkpoint(path: str | os.PathLike, sim) -> Path:
     """Write the complete state of ``sim`` (a :class:`~knotsim.simulation.Simulation`) to ``path``
     (atomically: a temporary file, then a rename)."""
     p = Path(path)
-    st, bc_sections, end_time = sim.resume_point()
-    sections = {**memory_sections(st.memory), **{f"bc/{name}": sec for name, sec in bc_sections.items()}}
+    st, end_time = sim.resume_point()
+    sections = memory_sections(st.memory)
     arrays: dict[str, np.ndarray] = {f"state/{k}": np.asarray(getattr(st, k)) for k in _STATE_KEYS}
     arrays["layout/node_dof"] = np.asarray(sim.model.node_dof)
     arrays["layout/edge_theta_dof"] = np.asarray(sim.model.edge_theta_dof)
@@ -201,18 +203,22 @@ Section = tuple[dict, dict[str, np.ndarray]]
 
 def memory_sections(memory: RunMemory) -> dict[str, Section]:
     """The sections of ``memory`` as ``{prefix: (scalars, arrays)}`` (``"driver"``, ``"stepper"``,
-    ``"validity"``, ``"interaction/<name>"``)."""
+    ``"validity"``, ``"interaction/<name>"``, ``"bc/<group name>"``)."""
     out = {"driver": (_scalars(memory.driver), {}), "stepper": _step_out(memory.step),
            "validity": _validity_out(memory.validity)}
     for name, mem in memory.interactions.items():
         if mem is not None:
             out[f"interaction/{name}"] = _fields_out(mem)
+    for name, mem in memory.bc.items():
+        out[f"bc/{name}"] = _group_out(mem)
     return out
 
 
 def read_memory(checkpoint: Checkpoint, template: RunMemory) -> RunMemory:
     """The run memory saved in ``checkpoint``; ``template``'s interaction sections give the types
-    (each saved field replaces the template's default, a field not saved keeps its default)."""
+    (each saved field replaces the template's default, a field not saved keeps its default) and its
+    boundary-condition sections the groups to read (a group the checkpoint holds no anchor of keeps
+    the template's memory)."""
     meta, _ = checkpoint.section("driver")
     driver = DriverMemory(**{f.name: meta[f.name] for f in dataclasses.fields(DriverMemory) if f.name in meta})
     if not meta:
@@ -222,8 +228,9 @@ def read_memory(checkpoint: Checkpoint, template: RunMemory) -> RunMemory:
         meta, arrays = checkpoint.section(f"interaction/{name}")
         # an interaction the checkpoint has nothing of keeps the memory it brings
         inter[name] = mem if mem is None or not (meta or arrays) else _fields_in(type(mem), meta, arrays)
+    bc = {name: _group_in(*checkpoint.section(f"bc/{name}"), mem) for name, mem in template.bc.items()}
     return RunMemory(driver, _step_in(*checkpoint.section("stepper")), _validity_in(*checkpoint.section("validity")),
-                     inter, {})
+                     inter, bc)
 
 
 def _scalars(obj) -> dict:
@@ -325,3 +332,43 @@ def _validity_in(meta: dict, arrays: dict[str, np.ndarray]) -> ValidityMemory:
                           float(meta["work_handled"]), float(meta["scale"]),
                           (float(meta["worst_strain"]), int(meta["worst_strain_edge"]), float(meta["worst_strain_time"])),
                           (float(meta["worst_gain"]), float(meta["worst_gain_time"])), penalty)
+
+
+#: the load-cell controller's numbers, in the order written
+_CELL_FIELDS = ("u", "u_cmd", "integral", "force", "error", "u_step")
+
+
+def _group_out(mem: GroupMemory) -> Section:
+    """A boundary-condition group's memory: ``anchored`` and, when it is, ``anchor_time`` and the
+    arrays ``anchor``, ``anchor_theta``, ``pivot``, ``path_start`` (those it has); a load cell's
+    controller as scalars (``t_last`` -1 for none)."""
+    extra: dict[str, Any] = {}
+    if mem.cell is not None:
+        extra = {k: float(getattr(mem.cell, k)) for k in _CELL_FIELDS}
+        extra["t_last"] = -1.0 if mem.cell.t_last is None else float(mem.cell.t_last)
+    if mem.anchor is None:
+        return {"anchored": False, **extra}, {}
+    arrays = {"anchor": mem.anchor}
+    for key in ("anchor_theta", "pivot", "path_start"):
+        if getattr(mem, key) is not None:
+            arrays[key] = getattr(mem, key)
+    return {"anchored": True, "anchor_time": float(mem.anchor_time), **extra}, arrays
+
+
+def _group_in(meta: dict, arrays: dict[str, np.ndarray], template: GroupMemory) -> GroupMemory:
+    """The memory of a group written by :func:`_group_out`; ``template`` (the group's own) when the
+    section holds no anchor. A controller field not written, a pivot or a path start keeps the
+    template's."""
+    if not meta.get("anchored"):
+        return template
+    cell = None
+    if template.cell is not None:
+        cell = LoadCellMemory(**{k: float(meta[k]) if k in meta else getattr(template.cell, k) for k in _CELL_FIELDS})
+        t_last = float(meta.get("t_last", -1.0))
+        cell.t_last = None if t_last < 0 else t_last
+
+    def array(key: str, default):
+        return np.array(arrays[key], float) if key in arrays else default
+
+    return GroupMemory(np.array(arrays["anchor"], float), array("anchor_theta", None), float(meta["anchor_time"]),
+                       array("pivot", template.pivot), array("path_start", template.path_start), cell)

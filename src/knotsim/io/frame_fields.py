@@ -29,37 +29,27 @@ def edge_strain(model, q: np.ndarray) -> np.ndarray:
     return np.linalg.norm(e, axis=1) / model.rest_length - 1.0
 
 
-def _force_sources(interactions: Sequence) -> list:
-    return [inter for inter in interactions if callable(getattr(inter, "node_forces", None))]
-
-
-def _slip_sources(interactions: Sequence) -> list:
-    return [inter for inter in interactions if getattr(inter, "surface_friction", False)
-            and callable(getattr(inter, "node_slip", None))]
+#: the per-node datasets interactions may report (:attr:`Interaction.node_field_names
+#: <knotsim.solver.stepper.Interaction.node_field_names>`), in the order written; the forces add
+#: over the interactions that report them, the speeds come from the first
+_NODE_FIELDS = ("contact_force", "friction_force", "slip_speed", "rolling_speed")
+_ADDED = ("contact_force", "friction_force")
 
 
 def frame_field_names(interactions: Sequence) -> list[str]:
     """The derived datasets a run with these interactions writes."""
-    names = ["edge_strain", "edge_tension"]
-    if _force_sources(interactions):
-        names += ["contact_force", "friction_force"]
-    if _slip_sources(interactions):
-        names += ["slip_speed", "rolling_speed"]
-    return names
+    reported = {n for inter in interactions for n in inter.node_field_names}
+    return ["edge_strain", "edge_tension", *(n for n in _NODE_FIELDS if n in reported)]
 
 
 def frame_fields(model, q: np.ndarray, interactions: Sequence) -> dict[str, np.ndarray]:
     """Values of :func:`frame_field_names` at the current frame (shapes and units in the module docstring)."""
     strain = edge_strain(model, q)
     out = {"edge_strain": strain, "edge_tension": model.edge_EA * strain}
-    sources = _force_sources(interactions)
-    if sources:
-        # vector sums over several contact models are not kept; their magnitudes add (one model in practice)
-        pairs = [inter.node_forces() for inter in sources]
-        out["contact_force"] = np.sum([c for c, _ in pairs], axis=0)
-        out["friction_force"] = np.sum([f for _, f in pairs], axis=0)
-    slips = _slip_sources(interactions)
-    if slips:
-        slip, rolling = slips[0].node_slip()  # one rod-rod contact model per run
-        out["slip_speed"], out["rolling_speed"] = slip, rolling
+    reports = [inter.node_fields() for inter in interactions if inter.node_field_names]
+    for name in _NODE_FIELDS:
+        values = [r[name] for r in reports if name in r]
+        if values:
+            # vector sums over several contact models are not kept; their magnitudes add (one model in practice)
+            out[name] = np.sum(values, axis=0) if name in _ADDED else values[0]
     return out

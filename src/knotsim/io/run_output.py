@@ -100,10 +100,8 @@ class RunOutput:
         self._commit = git_commit()
         #: the friction law of every contact interaction by name (``"surface"`` or ``"centreline"``),
         #: whether or not the run came from a configuration file
-        self._friction_models = {
-            getattr(inter, "name", type(inter).__name__): str(getattr(inter, "options", inter).friction_model)
-            for inter in sim.stepper.interactions
-            if hasattr(getattr(inter, "options", inter), "friction_model")}
+        self._friction_models = {inter.name: str(inter.friction_model) for inter in sim.stepper.interactions
+                                 if inter.friction_model is not None}
         self._t_start = float(sim.state.time)
         self._wall0 = _time.perf_counter()
         self._flushed = len(sim.rows)

@@ -12,8 +12,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
-import numpy as np
-
+from knotsim._util.validate import describe, is_number, number
 from knotsim.errors import ConfigError
 
 #: Parameters every protocol accepts (value ``None`` = taken from the knot drawing or computed).
@@ -127,32 +126,24 @@ _RANGE_TEXT = {">0": "a positive number", ">=0": "a non-negative number", "int>=
                "int>=3": "an integer >= 3", "poisson": "a number in (-1, 0.5]"}
 
 
+#: :data:`PARAM_RANGES` as the bounds of :func:`knotsim._util.validate.number`
+_RANGE_BOUNDS: dict[str, dict[str, Any]] = {">0": {"above": 0.0}, ">=0": {"at_least": 0.0},
+                                             "int>=1": {"whole": True, "at_least": 1},
+                                             "int>=3": {"whole": True, "at_least": 3},
+                                             "poisson": {"above": -1.0, "at_most": 0.5}}
+
+
 def check_param_ranges(values: Mapping[str, Any]) -> None:
     """Raise :class:`ConfigError` naming the first parameter of ``values`` outside its range
     (:data:`PARAM_RANGES`; non-finite numbers are always refused)."""
-    import math
-
     for key, v in values.items():
-        if v is None or isinstance(v, bool | str) or not isinstance(v, int | float | np.integer | np.floating):
+        if v is None or not is_number(v):
             continue
         rule = PARAM_RANGES.get(key)
-        if not math.isfinite(v):
-            ok = False
-        elif rule is None:
-            ok = True
-        elif rule == ">0":
-            ok = v > 0
-        elif rule == ">=0":
-            ok = v >= 0
-        elif rule == "poisson":
-            ok = -1.0 < v <= 0.5
-        else:
-            ok = float(v).is_integer() and v >= int(rule[5:])
-        if not ok:
-            unit = PARAM_INFO.get(key, ("", ""))[0]
-            unit = f" ({unit})" if unit not in ("", "-", "text") else ""
-            raise ConfigError(key, f"must be {_RANGE_TEXT.get(rule, 'a finite number')}{unit}, got {v!r}; "
-                                   f"set it with --set {key}=VALUE")
+        unit = PARAM_INFO.get(key, ("", ""))[0]
+        unit = f" ({unit})" if unit not in ("", "-", "text") else ""
+        bounds = _RANGE_BOUNDS.get(rule, {}) if rule is not None else {}
+        number(v, key, **bounds, must=describe(**bounds) + unit, fix=f"set it with --set {key}=VALUE")
 
 
 _CONTACT_KEYS = None
@@ -221,7 +212,7 @@ def _coerce(key: str, default: Any, value: Any) -> Any:
             raise ConfigError(key, f"expected true or false, got {value!r}")
         return value
     if isinstance(default, int | float):
-        if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        if not is_number(value):
             raise ConfigError(key, f"expected a number, got {value!r}")
         if isinstance(default, int) and not isinstance(default, bool):
             if not math.isfinite(float(value)) or float(value) != int(value):

@@ -34,7 +34,7 @@ import pandas as pd
 
 from knotsim._util.jsonio import json_safe, write_json
 from knotsim.contact.options import ContactOptions
-from knotsim.errors import ConfigError, SimulationError
+from knotsim.errors import ConfigError
 from knotsim.protocols.base import LoadingProtocol, ProtocolResult, RunContext
 from knotsim.protocols.params import COMMON_DEFAULTS, Params, resolve_params
 from knotsim.protocols.timeline import apply_settle, merge_settle_reactions
@@ -288,7 +288,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     the per-step log (a DataFrame, also when nothing is written).
     """
     from knotsim.protocols.metrics import knot_status
-    from knotsim.runspec import build_run, check_run
+    from knotsim.runspec import build_run, check_run, run_simulation
 
     wall0 = time.perf_counter()
     proto, ctx, spec, notes = build_protocol_run(name, knot, geometry=geometry, overrides=overrides, quick=quick)
@@ -310,15 +310,11 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
         reactions = merge_settle_reactions(ctx, res.reactions)
         s.rows[-1].update(proto.record(ctx, s.state.q, s.state.time, reactions))
 
-    run_status = "completed"
     out = Path(out_dir) if out_dir is not None else None
-    t_start = float(sim.state.time)
-    try:
-        sim.run(cfg.duration, output_dir=out, output_interval=cfg.output_interval, progress=progress,
-                callback=callback)
-    except SimulationError as exc:
-        run_status = f"failed at t = {sim.state.time:.4g} s: {exc}"
-    log = sim.log()
+    ran = run_simulation(sim, cfg.duration, out, output_interval=cfg.output_interval, progress=progress,
+                         callback=callback)
+    run_status = ran.status
+    log = ran.log
     model = cfg.model
     curves = [model.rod_positions(sim.state.q, r) for r in range(model.n_rods)]
     topo_end = _topology(*proto.closure(ctx, curves))
@@ -353,10 +349,10 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
         "topology": {"start": topo_start, "end": topo_end},
         "contact": contact_stats(log),
         "wall_time": time.perf_counter() - wall0,
-        "sim_time": float(sim.state.time - t_start),
-        "n_steps": int(len(log)),
-        "newton_iterations": int(log["iterations"].sum()) if len(log) else 0,
-        "failed_attempts": int(sim.n_failures),
+        "sim_time": ran.sim_time,
+        "n_steps": ran.n_steps,
+        "newton_iterations": ran.newton_iterations,
+        "failed_attempts": ran.failed_attempts,
         "notes": notes,
         "knotsim_version": __version__,
         "out_dir": str(out) if out is not None else None,

@@ -122,18 +122,8 @@ def csc_constrained_slots(indptr, indices, fixed):
     """Slots of the CSC pattern in a prescribed row or column: ``(zero, one)`` int64 arrays, the
     off-diagonal ones (set to 0 by :func:`csc_set_slots`) and the diagonal ones (set to 1)."""
     n = indptr.shape[0] - 1
-    nz = 0
-    no = 0
-    for c in range(n):
-        for p in range(indptr[c], indptr[c + 1]):
-            r = indices[p]
-            if fixed[r] or fixed[c]:
-                if r == c:
-                    no += 1
-                else:
-                    nz += 1
-    zero = np.empty(nz, np.int64)
-    one = np.empty(no, np.int64)
+    zero = np.empty(indptr[n], np.int64)
+    one = np.empty(indptr[n], np.int64)
     nz = 0
     no = 0
     for c in range(n):
@@ -146,7 +136,7 @@ def csc_constrained_slots(indptr, indices, fixed):
                 else:
                     zero[nz] = p
                     nz += 1
-    return zero, one
+    return zero[:nz].copy(), one[:no].copy()
 
 
 @njit(cache=True)

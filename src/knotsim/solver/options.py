@@ -3,11 +3,10 @@ sets of choices (:class:`LinearSolver`, :class:`Predictor`)."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from enum import StrEnum
 
-from knotsim.errors import ConfigError
+from knotsim._util.validate import choice, flag, number
 
 __all__ = ["LinearSolver", "Predictor", "SolverOptions"]
 
@@ -85,32 +84,17 @@ class SolverOptions:
     spin_relaxation: bool = True
 
     def validate(self) -> None:
-        if not (isinstance(self.dt, int | float) and self.dt > 0 and math.isfinite(self.dt)):
-            raise ConfigError("solver.dt", f"must be a positive time step in s, got {self.dt!r}")
-        if self.dt_min is not None and not (0 < self.dt_min <= self.dt):
-            raise ConfigError("solver.dt_min", f"must lie in (0, dt={self.dt}], got {self.dt_min!r}")
-        if not (isinstance(self.max_iterations, int) and self.max_iterations >= 1):
-            raise ConfigError("solver.max_iterations", f"must be a positive integer, got {self.max_iterations!r}")
+        number(self.dt, "solver.dt", above=0.0, must="be a positive time step in s")
+        if self.dt_min is not None:
+            number(self.dt_min, "solver.dt_min", above=0.0, at_most=self.dt, must=f"lie in (0, dt={self.dt}]")
+        number(self.max_iterations, "solver.max_iterations", integer=True, at_least=1)
         for name in ("force_tol", "moment_tol", "step_tol", "angle_tol"):
             v = getattr(self, name)
-            if v is not None and not (v > 0):
-                raise ConfigError(f"solver.{name}", f"must be positive, got {v!r}")
-        if not isinstance(self.spin_relaxation, bool):
-            raise ConfigError("solver.spin_relaxation", f"must be true or false, got {self.spin_relaxation!r}")
+            if v is not None:
+                number(v, f"solver.{name}", above=0.0, infinite=True, must="be positive")
+        flag(self.spin_relaxation, "solver.spin_relaxation")
         for name in ("max_axial_strain", "max_energy_gain"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not v > 0:
-                raise ConfigError(f"solver.{name}", f"must be a positive number (inf switches the guard off), got {v!r}")
-        self.linear_solver = _member(LinearSolver, self.linear_solver, "solver.linear_solver")
-        self.predictor = _member(Predictor, self.predictor, "solver.predictor")
-
-
-def _member(enum, value, field: str):
-    """``value`` (a member or its string) as a member of ``enum``; :class:`ConfigError` naming
-    ``field`` and the allowed values otherwise."""
-    try:
-        return enum(value)
-    except ValueError:
-        allowed = ", ".join(repr(m.value) for m in enum)
-        raise ConfigError(field, f"must be one of {allowed}, got {value!r}") from None
-
+            number(getattr(self, name), f"solver.{name}", above=0.0, infinite=True,
+                   must="be a positive number (inf switches the guard off)")
+        self.linear_solver = choice(self.linear_solver, "solver.linear_solver", LinearSolver)
+        self.predictor = choice(self.predictor, "solver.predictor", Predictor)

@@ -23,6 +23,18 @@ from knotsim.rods.frames import (
 )
 
 
+def memory_field(name: str, doc: str) -> property:
+    """A property that reads and writes the field ``name`` of the object's ``memory`` (for the
+    holders of run memory: the attribute stays, the value lives in the memory)."""
+    def get(self):
+        return getattr(self.memory, name)
+
+    def set_(self, value):
+        setattr(self.memory, name, value)
+
+    return property(get, set_, doc=doc)
+
+
 @dataclass
 class DriverMemory:
     """The adaptive step policy of :class:`~knotsim.simulation.Simulation`: the current step ``dt``
@@ -103,25 +115,59 @@ class StepMemory:
 
 
 @dataclass
+class LoadCellMemory:
+    """The PI controller of a load-cell grip (:class:`~knotsim.bc.feedback.LoadCell`): the
+    displacement ``u`` (m) at the last accepted step, the one ``u_step`` prescribed in the current
+    step and the one ``u_cmd`` commanded for the next, the time ``t_last`` (s) of the last accepted
+    step (``None`` before the first), the integral of the force error ``integral`` (N s), the
+    measured ``force`` and the ``error`` (N) then."""
+
+    u: float = 0.0
+    u_step: float = 0.0
+    u_cmd: float = 0.0
+    t_last: float | None = None
+    integral: float = 0.0
+    force: float = 0.0
+    error: float = 0.0
+
+
+@dataclass
+class GroupMemory:
+    """What a boundary-condition group (:class:`~knotsim.bc.group.Group`) captured when it became
+    active: the positions ``anchor (n, 3)`` (m) and edge angles ``anchor_theta (e,)`` (rad) it
+    prescribes from (``None`` while not active), the time ``anchor_time`` (s) they were captured,
+    a turning grip's ``pivot (3,)`` (m), the start point ``path_start (3,)`` (m) a ``from_current``
+    path was bound to, and a load cell's controller ``cell`` (:class:`LoadCellMemory`)."""
+
+    anchor: np.ndarray | None = None
+    anchor_theta: np.ndarray | None = None
+    anchor_time: float = 0.0
+    pivot: np.ndarray | None = None
+    path_start: np.ndarray | None = None
+    cell: LoadCellMemory | None = None
+
+
+@dataclass
 class RunMemory:
     """What the parts of a run remember across steps, carried with the :class:`State`.
 
     ``driver`` (:class:`DriverMemory`), ``step`` (:class:`StepMemory`), ``validity``
-    (:class:`ValidityMemory`), ``interactions`` (by interaction name: the object each interaction's
-    ``initial_memory()`` made, a dataclass of numbers and arrays) and ``bc`` (by group name: what a
-    boundary-condition group captured). :meth:`State.copy` shares the sections (a failed attempt
-    keeps what it changed in them, e.g. a raised contact stiffness, as the holders always did);
-    :meth:`snapshot` copies them."""
+    (:class:`ValidityMemory`), ``interactions`` (by interaction name: each interaction's
+    ``memory``, a dataclass of numbers and arrays) and ``bc`` (by group name: what a
+    boundary-condition group captured, :class:`GroupMemory`). :meth:`State.copy` shares the
+    sections, the ``bc`` table included (a failed attempt keeps what it changed in them, e.g. a
+    raised contact stiffness or a captured anchor, as the holders always did); :meth:`snapshot`
+    copies them."""
 
     driver: DriverMemory = field(default_factory=DriverMemory)
     step: StepMemory = field(default_factory=StepMemory)
     validity: ValidityMemory = field(default_factory=ValidityMemory)
     interactions: dict[str, Any] = field(default_factory=dict)
-    bc: dict[str, Any] = field(default_factory=dict)
+    bc: dict[str, GroupMemory] = field(default_factory=dict)
 
     def copy(self) -> RunMemory:
         """A new container holding the same sections."""
-        return RunMemory(self.driver, self.step, self.validity, dict(self.interactions), dict(self.bc))
+        return RunMemory(self.driver, self.step, self.validity, dict(self.interactions), self.bc)
 
     def snapshot(self) -> RunMemory:
         """A copy of every section (arrays included)."""

@@ -88,6 +88,17 @@ class Interaction(Protocol):
         """Friction in the edge angles alone at the last evaluation (positions held), for the spin
         relaxation (:class:`~knotsim.solver.spin_relaxation.SpinFrictionTerms`), or ``None``."""
 
+    #: the friction law it applies (``"surface"`` or ``"centreline"``, written to ``run.json``), or
+    #: ``None`` for an interaction without friction
+    friction_model: str | None
+
+    #: the per-node datasets it reports for the output frames (of ``contact_force``,
+    #: ``friction_force``, ``slip_speed``, ``rolling_speed``: :mod:`knotsim.io.frame_fields`), or ``()``
+    node_field_names: tuple[str, ...]
+
+    def node_fields(self) -> dict[str, np.ndarray]:
+        """The datasets :attr:`node_field_names` at the last accepted step, ``(n_nodes,)`` each."""
+
     def supplied_work(self, q_prev: np.ndarray, q: np.ndarray, dt: float) -> float:
         """Work (J) a moving source of this interaction did on the rods during the accepted step from
         ``q_prev`` to ``q`` (called before :meth:`stats`; see :mod:`knotsim.solver.validity`)."""
@@ -557,6 +568,8 @@ class Stepper:
               jac: JacobianMemory | None, out_mem: StepMemory) -> StepResult:
         m = self.model
         t_new = state_in.time + dt
+        if control:
+            control.begin_step(state_in)  # the boundary conditions take their memory from state_in
         fixed_dofs, fixed_vals, f_bc = control.evaluate(t_new, state_in.q, state_in.time) if control else (
             np.zeros(0, np.int64), np.zeros(0), np.zeros(m.n_dofs))
         fixed = np.zeros(m.n_dofs, np.bool_)

@@ -59,23 +59,22 @@ def run_executor(config: dict, out_dir: Path, base_dir: Path) -> dict:
     ``<name>_moment`` (N m) and the largest ``<name>_force_max`` (N) over the run; the final
     energies ``energy_*`` (J).
     """
-    import time
-
-    from knotsim.runspec import RunSpec, build_run
+    from knotsim.runspec import RunSpec, build_run, run_simulation
 
     sim, cfg = build_run(RunSpec.from_dict(config, base_dir=base_dir) if isinstance(config, dict)
                          else RunSpec.coerce(config))
-    wall0 = time.perf_counter()
-    log = sim.run(cfg.duration, output_dir=out_dir, output_interval=cfg.output_interval, progress=False)
-    wall = time.perf_counter() - wall0
-    steps = len(log)
+    ran = run_simulation(sim, cfg.duration, out_dir, output_interval=cfg.output_interval, progress=False)
+    if ran.error is not None:  # the case fails (the study records it)
+        raise ran.error
+    log = ran.log
+    steps = ran.n_steps
     out = {
         "steps": steps,
-        "newton_iterations": int(log["iterations"].sum()) if steps else 0,
+        "newton_iterations": ran.newton_iterations,
         "iterations_per_step": _num(log["iterations"].mean()) if steps else math.nan,
-        "step_failures": int(sim.n_failures),
+        "step_failures": ran.failed_attempts,
         "simulated_time": _num(sim.state.time),
-        "run_wall_time": wall,
+        "run_wall_time": ran.wall_time,
     }
     if steps:
         last = log.iloc[-1]

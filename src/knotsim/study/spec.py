@@ -62,6 +62,7 @@ from pathlib import Path
 from typing import Any
 
 from knotsim._util.toml import dumps_toml, load_toml  # dumps_toml: re-exported (study files)
+from knotsim._util.validate import number
 from knotsim.errors import ConfigError
 
 __all__ = ["Case", "Study", "case_hash", "dumps_toml", "expand", "load_study_spec", "parse_key", "set_key"]
@@ -304,9 +305,7 @@ def load_study_spec(source: str | os.PathLike | dict, *, base_dir: str | os.Path
     description = raw.get("description", "")
     if not isinstance(description, str):
         raise ConfigError("description", f"expected a string, got {description!r}")
-    repeats = raw.get("repeats", 1)
-    if not isinstance(repeats, int) or isinstance(repeats, bool) or repeats < 1:
-        raise ConfigError("repeats", f"expected an integer >= 1, got {repeats!r}")
+    repeats = number(raw.get("repeats", 1), "repeats", integer=True, at_least=1, must="be an integer >= 1")
 
     base = raw.get("base")
     if base is None:

@@ -146,14 +146,8 @@ class TubeMesh:
     tri_values: np.ndarray | None = None
 
 
-def tube_mesh(
-    centerlines: Sequence[np.ndarray],
-    radii: Sequence[float],
-    closed: Sequence[bool],
-    scalars: Sequence[np.ndarray] | None = None,
-    subdivisions: int = 3,
-    n_sides: int = 12,
-) -> TubeMesh:
+def tube_mesh(centerlines: Sequence[np.ndarray], radii: Sequence[float], closed: Sequence[bool],
+              scalars: Sequence[np.ndarray] | None = None, subdivisions: int = 3, n_sides: int = 12) -> TubeMesh:
     """Build the tube surfaces around centerlines.
 
     Parameters

@@ -6,19 +6,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from knotsim._util.fields import (
-    as_bool,
-    as_integer,
-    as_number,
-    as_numbers,
-    as_string,
-    as_table,
-    as_vec3,
-    check_keys,
-    error_message,
-    get_field,
-    type_name,
-)
+from knotsim._util.fields import as_numbers, as_table, as_vec3, check_keys, error_message, get_field
+from knotsim._util.validate import as_bool, as_integer, as_number, as_string, type_name
 from knotsim.bc import BoundaryConditions, Waypoints
 from knotsim.errors import ConfigError
 from knotsim.rods import Model

@@ -24,19 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from knotsim._util.fields import (
-    as_bool,
-    as_integer,
-    as_number,
-    as_string,
-    as_table,
-    as_vec3,
-    check_keys,
-    error_message,
-    get_field,
-    type_name,
-)
+from knotsim._util.fields import as_table, as_vec3, check_keys, error_message, get_field
 from knotsim._util.toml import load_toml
+from knotsim._util.validate import as_bool, as_integer, as_number, as_string, type_name
 from knotsim.bc import BoundaryConditions
 from knotsim.errors import ConfigError
 from knotsim.io.config.bc import BCSpec, bcs_builder, parse_bc, resolve_releases

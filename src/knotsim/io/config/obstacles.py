@@ -5,15 +5,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from knotsim._util.fields import (
-    as_number,
-    as_string,
-    as_table,
-    as_vec3,
-    check_keys,
-    error_message,
-    get_field,
-)
+from knotsim._util.fields import as_table, as_vec3, check_keys, error_message, get_field
+from knotsim._util.validate import as_number, as_string
 from knotsim.errors import ConfigError
 
 _COMMON = ("type", "name", "rods", "mu", "delta", "nu", "stiffness", "stiffness_scaler", "penetration_limit",

@@ -29,12 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from knotsim._util.fields import (
-    as_bool,
-    as_integer,
-    as_number,
     as_numbers,
     as_points,
-    as_string,
     as_table,
     as_unit,
     as_vec3,
@@ -42,6 +38,7 @@ from knotsim._util.fields import (
     error_message,
     get_field,
 )
+from knotsim._util.validate import as_bool, as_integer, as_number, as_string
 from knotsim.errors import ConfigError
 from knotsim.rods import RodSpec
 

@@ -115,19 +115,9 @@ def _name_link(k: int, jones: dict | None, linking: np.ndarray, det: int):
     return "unknown", None
 
 
-def analyze(
-    curves,
-    closed=None,
-    *,
-    pairing=None,
-    closure: ClosureMethod | str = "radial",
-    radius_factor: float = 20.0,
-    direction=None,
-    seed: int = 0,
-    n_directions: int = 6,
-    compute_jones: bool = True,
-    max_jones_crossings: int = 80,
-) -> TopologyResult:
+def analyze(curves, closed=None, *, pairing=None, closure: ClosureMethod | str = "radial",
+            radius_factor: float = 20.0, direction=None, seed: int = 0, n_directions: int = 6,
+            compute_jones: bool = True, max_jones_crossings: int = 80) -> TopologyResult:
     """Close, project and identify knotted ropes.
 
     Parameters

@@ -215,15 +215,8 @@ def _close(curves, closed, pairing, method: str, radius_factor: float, arc_step_
     return comps, comp_ropes
 
 
-def close_curves(
-    curves,
-    closed=None,
-    *,
-    pairing=None,
-    method: ClosureMethod | str = "radial",
-    radius_factor: float = 20.0,
-    arc_step_deg: float = 10.0,
-) -> list[np.ndarray]:
+def close_curves(curves, closed=None, *, pairing=None, method: ClosureMethod | str = "radial",
+                 radius_factor: float = 20.0, arc_step_deg: float = 10.0) -> list[np.ndarray]:
     """Close open ropes far away from the tangle.
 
     Parameters

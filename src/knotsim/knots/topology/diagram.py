@@ -184,14 +184,8 @@ def _random_direction(rng: np.random.Generator) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def project(
-    closed_curves,
-    direction=None,
-    *,
-    seed: int = 0,
-    n_directions: int = 6,
-    max_tries: int = 50,
-) -> Diagram:
+def project(closed_curves, direction=None, *, seed: int = 0, n_directions: int = 6,
+            max_tries: int = 50) -> Diagram:
     """Project closed polygons to a generic knot/link diagram.
 
     Parameters

@@ -421,6 +421,19 @@ def _backward8(PL, PU, po, mp, rq, y, f, u):
     y[_u(f + 4)], y[_u(f + 5)], y[_u(f + 6)], y[_u(f + 7)] = y4, y5, y6, y7
 
 
+@njit(inline="always")
+def _panel(sf, rp, ppoff, s):
+    """Supernode ``s``'s panel in the packed factor: first column ``f``, width ``w``, rows below
+    ``r``, their padded sizes ``wp`` and ``rq``, the panel's leading dimension ``mp``, its offset
+    ``po`` and the start ``r0`` of its row list."""
+    f = sf[s]
+    w = sf[s + 1] - f
+    r = rp[s + 1] - rp[s]
+    wp = (w + 7) & ~7
+    rq = (r + 15) & ~15
+    return f, w, r, wp, rq, wp + rq, ppoff[s], rp[s]
+
+
 @njit(cache=True, fastmath=_FM, error_model="numpy")
 def mf_solve(perm, sf, rp, ri, ppoff, PL, PU, b, x, y):
     """Solve ``A x = b`` with the multifrontal factors; ``b``, ``x``, ``y`` ``(n,)`` (``y`` scratch).
@@ -439,14 +452,7 @@ def mf_solve(perm, sf, rp, ri, ppoff, PL, PU, b, x, y):
     for j in range(n):
         y[_u(j)] = b[_u(perm[_u(j)])]
     for s in range(ns):
-        f = sf[s]
-        w = sf[s + 1] - f
-        r = rp[s + 1] - rp[s]
-        wp = (w + 7) & ~7
-        rq = (r + 15) & ~15
-        mp = wp + rq
-        po = ppoff[s]
-        r0 = rp[s]
+        f, w, r, wp, rq, mp, po, r0 = _panel(sf, rp, ppoff, s)
         if w == 8:
             _forward8(PL, po, mp, rq, y, f, u)
             for a in range(r):
@@ -466,14 +472,7 @@ def mf_solve(perm, sf, rp, ri, ppoff, PL, PU, b, x, y):
         for a in range(r):
             y[_u(ri[_u(r0 + a)])] -= u[_u(a)]
     for s in range(ns - 1, -1, -1):
-        f = sf[s]
-        w = sf[s + 1] - f
-        r = rp[s + 1] - rp[s]
-        wp = (w + 7) & ~7
-        rq = (r + 15) & ~15
-        mp = wp + rq
-        po = ppoff[s]
-        r0 = rp[s]
+        f, w, r, wp, rq, mp, po, r0 = _panel(sf, rp, ppoff, s)
         for a in range(r):
             u[_u(a)] = y[_u(ri[_u(r0 + a)])]
         for a in range(r, rq):
