@@ -195,6 +195,17 @@ def node_contact(kind, x, x_prev, dt, geom, h, tol, k_c, mu, nu, vel, omega, cen
     return k_c * E, delta - d
 
 
+@njit(inline="always", cache=True)
+def store_node(i, g, f_contact, f_friction, normal_vec, gap, fc, ff, normal):
+    """Write node ``i``'s gap (m), contact and friction forces (N) and unit normal into the per-node
+    output arrays of an obstacle evaluation."""
+    gap[i] = g
+    for k in range(3):
+        fc[i, k] = f_contact[k]
+        ff[i, k] = f_friction[k]
+        normal[i, k] = normal_vec[k]
+
+
 @njit(cache=True)
 def obstacle_evaluate(kind, geom, nodes, node_dof, node_h, q, q_prev, dt, tol, k_c, mu, nu, vel, omega, center,
                       residual, want_jacobian, blocks, fc, ff, gap, normal):
@@ -222,11 +233,8 @@ def obstacle_evaluate(kind, geom, nodes, node_dof, node_h, q, q_prev, dt, tol, k
         e, g = node_contact(kind, x, xp, dt, geom, node_h[i], tol, k_c, mu, nu, vel, omega, center, f, fr, jac,
                             want_jacobian, gr, H)
         energy += e
-        gap[i] = g
+        store_node(i, g, f, fr, gr, gap, fc, ff, normal)
         for k in range(3):
-            fc[i, k] = f[k]
-            ff[i, k] = fr[k]
-            normal[i, k] = gr[k]
             residual[j + k] -= f[k] + fr[k]
             if want_jacobian:
                 for m in range(3):

@@ -38,7 +38,7 @@ from numba import njit
 
 from knotsim import _vec3 as v3
 from knotsim.contact.friction import FRICTION_SHARPNESS, law_force, law_force_dot, slip_functions
-from knotsim.contact.obstacle_kernels import node_distance
+from knotsim.contact.obstacle_kernels import node_distance, store_node
 from knotsim.contact.potential import imc_energy_derivatives
 from knotsim.contact.surface_friction import (
     edge_dot,
@@ -46,6 +46,7 @@ from knotsim.contact.surface_friction import (
     lever_force_dot,
     lever_velocity,
     lever_velocity_dot,
+    tangential_dot,
 )
 
 #: Unknowns of a node's surface-friction stencil: x_{i−1}, θ_A, x_i, θ_B, x_{i+1}.
@@ -181,8 +182,7 @@ def node_surface_contact(kind, z, zp, wA, wB, dt, geom, h, tol, k_c, mu, nu, vel
                    v3.scale(h * wB, v3.add(v3.scale(domB, tBn), v3.scale(omB, dtBn)))))
         dy = v3.axpy(-h, dn, dx)
         dwv = v3.sub(v3.axpy(idt, dx, drot), v3.cross(om, dy))
-        dwn = v3.dot(dwv, n) + v3.dot(wv, dn)
-        du = v3.sub(v3.axpy(-dwn, n, dwv), v3.scale(wn, dn))
+        du = tangential_dot(wv, dwv, wn, n, dn)
         df = law_force_dot(kappa, dt, mu, fn, dfn, phi, psi, vec, du)
         dgA = lever_force_dot(cA, dcA, tA, dtA, f, df, n, dn)
         dgB = lever_force_dot(cB, dcB, tB, dtB, f, df, n, dn)
@@ -241,12 +241,9 @@ def obstacle_surface_evaluate(kind, geom, stencil, weights, node_h, q, q_prev, d
             for k in range(3):
                 xi_out[i, k] = xo[k]
         energy += e
-        gap[i] = g
+        store_node(i, g, fcv, ffv, gr, gap, fc, ff, normal)
         for k in range(3):
-            fc[i, k] = fcv[k]
-            ff[i, k] = ffv[k]
             vs[i, k] = vsv[k]
-            normal[i, k] = gr[k]
         for j in range(STENCIL):
             residual[stencil[i, j]] -= force[j]
             if want_jacobian:

@@ -74,6 +74,14 @@ def lever_velocity_dot(c, cd, t, td, ed, edd, n, nd):
 
 
 @njit(inline="always", cache=True)
+def tangential_dot(w, dw, wn, n, dn):
+    """Directional derivative of the tangential part ``u = w − (w·n) n`` of ``w`` (``wn = w·n``) given
+    those of ``w`` and of the unit normal ``n``."""
+    dwn = v3.dot(dw, n) + v3.dot(w, dn)
+    return v3.sub(v3.axpy(-dwn, n, dw), v3.scale(wn, dn))
+
+
+@njit(inline="always", cache=True)
 def edge_dot(sign, unit, t, l, c):
     """Directional derivatives for an edge of tangent ``t``, length ``l`` (m) and ``c = h w/l`` when one
     of its nodes moves along ``unit`` (``sign`` +1 for its second node, −1 for its first, 0 for
@@ -241,8 +249,7 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
         dtr_a = v3.add(v3.scale(bad, v3.sub(v1, v0)), v3.add(v3.scale(1.0 - beta_a, dv0), v3.scale(beta_a, dv1)))
         dtr_b = v3.add(v3.scale(bbd, v3.sub(v3_, v2)), v3.add(v3.scale(1.0 - beta_b, dv2), v3.scale(beta_b, dv3)))
         dw = v3.sub(v3.add(dtr_a, drot_a), v3.sub(dtr_b, drot_b))
-        dwn = v3.dot(dw, n) + v3.dot(w, dn)
-        du = v3.sub(v3.axpy(-dwn, n, dw), v3.scale(wn, dn))
+        du = tangential_dot(w, dw, wn, n, dn)
         df = law_force_dot(kappa, dt, mu, fnorm, dfn, phi, psi, vec, du)
         dga = lever_force_dot(ca, dca, ta, dta, f, df, n, dn)
         dgb = lever_force_dot(cb, dcb, tb, dtb, f, df, n, dn)
