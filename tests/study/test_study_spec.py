@@ -140,3 +140,20 @@ def test_shipped_study_files_expand_to_valid_cases():
             load_knot_spec(c.config.get("knot") or proto.default_knot)
             defaults = {**COMMON_DEFAULTS, **proto.defaults}
             resolve_params(defaults, c.config.get("overrides") or {})
+
+
+def test_results_of_numbers_and_text_in_one_column_are_written(tmp_path):
+    """A setting swept over numbers and the text "none" (unset) goes into results.parquet as text."""
+    import pandas as pd
+
+    from knotsim.study.store import results_frame
+
+    cases = [{"case_id": "a", "kind": "protocol", "params": {"overrides.contact.stick_distance": 1e-4}},
+             {"case_id": "b", "kind": "protocol", "params": {"overrides.contact.stick_distance": "none"}},
+             {"case_id": "c", "kind": "protocol", "params": {"overrides.contact.stick_distance": None}}]
+    records = {c["case_id"]: {"outcome": "completed", "metrics": {"slip_load": 0.01, "friction_model": "surface"}}
+               for c in cases}
+    df = results_frame(cases, records)
+    df.to_parquet(tmp_path / "r.parquet")
+    col = list(df["overrides.contact.stick_distance"])
+    assert col[:2] == ["0.0001", "none"] and pd.isna(col[2])

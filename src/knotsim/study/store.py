@@ -488,6 +488,12 @@ def results_frame(cases: list, records: dict[str, dict]):
     for col in ("error", "traceback", "case_dir"):
         if col in df.columns:
             df[col] = df[col].astype(object)
+    for col in df.columns:  # a column of numbers and text (e.g. a setting swept over 1e-4 and "none")
+        if df[col].dtype == object:  # is written as text: parquet columns have one type
+            vals = [v for v in df[col] if v is not None and not (isinstance(v, float) and math.isnan(v))]
+            if any(isinstance(v, str) for v in vals) and not all(isinstance(v, str) for v in vals):
+                df[col] = [None if v is None or (isinstance(v, float) and math.isnan(v)) else str(v)
+                           for v in df[col]]
     params = {k for c in cases for k in (c if isinstance(c, dict) else c.to_dict())["params"]}
     for col in df.columns:  # integer metrics stay integers next to failed (missing) rows
         if col in _RESERVED or col in params or df[col].dtype != float:
