@@ -62,8 +62,8 @@ from knotsim.contact.assembly import (
 )
 from knotsim.contact.broadphase import find_candidate_pairs, node_drift
 from knotsim.contact.options import ContactOptions, StiffnessMode
-from knotsim.contact.stick import StickHistory
-from knotsim.contact.stiffness import AdaptiveStiffness, default_floor
+from knotsim.contact.stick import SpringMemory, StickHistory
+from knotsim.contact.stiffness import AdaptiveStiffness, StiffnessMemory, default_floor
 from knotsim.contact.surface_friction import RECORD_SIZE, SpinFriction
 from knotsim.contact.swept import pass_through, swept_box_pairs
 from knotsim.errors import ConfigError
@@ -87,7 +87,7 @@ __all__ = ["Contact", "ContactMemory", "ContactOptions", "StiffnessMode", "conta
 
 
 @dataclass
-class ContactMemory:
+class ContactMemory(SpringMemory, StiffnessMemory):
     """What a :class:`Contact` remembers across steps (run memory, carried by the state and written
     to checkpoints field by field): the stiffness ``k_c`` (N/m), the largest nodal contact force of
     the last accepted step (N) and the largest step seen (s) that drive it, the number of broad-phase
@@ -96,15 +96,10 @@ class ContactMemory:
     the elastic-stick law, every listed pair's tangential spring displacement ``stick_xi (k, 3)`` (m)
     and whether it slides ``stick_sliding (k,)`` (:mod:`knotsim.contact.stick`)."""
 
-    k_c: float = math.nan
-    fmax_accepted: float = 0.0
-    dt_ref: float = 0.0
     n_rebuilds: int = 0
     pairs: np.ndarray | None = None
     block_mask: np.ndarray | None = None
     q_build: np.ndarray | None = None
-    stick_xi: np.ndarray | None = None
-    stick_sliding: np.ndarray | None = None
 
 
 #: an attribute of :class:`Contact` kept in its run memory (:class:`ContactMemory`)

@@ -72,8 +72,8 @@ from knotsim.bc.paths import Path, as_path
 from knotsim.contact.obstacle_kernels import CAPSULE, PLANE, SPHERE, obstacle_evaluate
 from knotsim.contact.obstacle_surface_kernels import STENCIL, obstacle_surface_evaluate, spin_update
 from knotsim.contact.obstacle_swept import NODE, describe, first_pass_through, obstacle_edges
-from knotsim.contact.stick import return_map, spring_arrays
-from knotsim.contact.stiffness import AdaptiveStiffness, default_floor
+from knotsim.contact.stick import SpringMemory, return_map, spring_arrays
+from knotsim.contact.stiffness import AdaptiveStiffness, StiffnessMemory, default_floor
 from knotsim.errors import ConfigError, GeometryError
 from knotsim.solver.state import memory_field
 
@@ -84,7 +84,7 @@ FRICTION_MODELS = ("surface", "centreline")
 
 
 @dataclass
-class ObstacleMemory:
+class ObstacleMemory(SpringMemory, StiffnessMemory):
     """What an :class:`Obstacle` remembers across steps (run memory, carried by the state and written
     to checkpoints field by field): the stiffness ``k_c`` (N/m), the largest node contact force of
     the last accepted step (N) and the largest step seen (s) that drive it, the start its path was
@@ -92,13 +92,8 @@ class ObstacleMemory:
     with the elastic-stick law, every node's tangential spring ``stick_xi (k, 3)`` (m) and whether it
     slides ``stick_sliding (k,)`` (:mod:`knotsim.contact.stick`)."""
 
-    k_c: float = math.nan
-    fmax_accepted: float = 0.0
-    dt_ref: float = 0.0
     path_start: np.ndarray | None = None
     spin: np.ndarray | None = None
-    stick_xi: np.ndarray | None = None
-    stick_sliding: np.ndarray | None = None
 
 
 def _memory_field(name: str) -> property:

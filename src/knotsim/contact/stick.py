@@ -27,15 +27,27 @@ them and a continued run equals an uninterrupted one.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from knotsim.errors import ConfigError
 
-__all__ = ["STICK_TOLERANCE", "StickHistory", "return_map", "spring_arrays"]
+__all__ = ["STICK_TOLERANCE", "SpringMemory", "StickHistory", "return_map", "spring_arrays"]
 
 #: A spring counts as beyond its limit when longer than the limit by this fraction: a contact that
 #: slid and stopped keeps ``|ξ| = δ_s`` up to rounding and must stick again, not slide on forever.
 STICK_TOLERANCE = 1e-9
+
+
+@dataclass
+class SpringMemory:
+    """The springs of the elastic-stick law in a holder's run memory (contact, obstacle): every
+    contact's tangential spring ``stick_xi (k, 3)`` (m) and whether it slides ``stick_sliding (k,)``
+    (``None``: no springs yet)."""
+
+    stick_xi: np.ndarray | None = None
+    stick_sliding: np.ndarray | None = None
 
 
 def spring_arrays(mem, k: int) -> tuple[np.ndarray, np.ndarray]:

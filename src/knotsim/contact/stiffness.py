@@ -18,10 +18,11 @@ only the constants of the policy.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-__all__ = ["PENETRATION_BOOST", "STIFFNESS_RELAX", "AdaptiveStiffness", "default_floor"]
+__all__ = ["PENETRATION_BOOST", "STIFFNESS_RELAX", "AdaptiveStiffness", "StiffnessMemory", "default_floor"]
 
 #: Weight of the new target in the downward moving average of the adaptive stiffness (per step).
 STIFFNESS_RELAX = 0.02
@@ -33,6 +34,17 @@ def default_floor(scaler: float, max_node_mass: float, h_min: float) -> float:
     """The default floor of ``k_c`` (N/m): ``scaler`` times the weight of the heaviest node under
     1 m/s² (N) over ``h_min`` (m)."""
     return scaler * max_node_mass * 1.0 / h_min
+
+
+@dataclass
+class StiffnessMemory:
+    """The run memory the adaptive stiffness keeps in its holder's memory (contact, obstacle): the
+    stiffness ``k_c`` (N/m), the largest contact force of the last accepted step (N) and the largest
+    step seen (s)."""
+
+    k_c: float = math.nan
+    fmax_accepted: float = 0.0
+    dt_ref: float = 0.0
 
 
 @dataclass(frozen=True)
