@@ -154,6 +154,16 @@ class LoadingProtocol:
         the metrics, or ``None`` when the knot held (default: ``"slipped"`` when :meth:`slipped`)."""
         return "slipped" if self.slipped(ctx, metrics) else None
 
+    def slip_verdict(self, ctx: RunContext, metrics: dict) -> str | None:
+        """``"slipped"`` when :meth:`slipped`, else ``"undecided"`` when the metrics say the run was too
+        short to tell (``decidable`` false or missing), else ``None`` (held): the end of the verdicts
+        of the protocols whose metrics carry ``decidable``."""
+        if self.slipped(ctx, metrics):
+            return "slipped"
+        if not metrics.get("decidable", False):
+            return "undecided"
+        return None
+
     def topology_key(self, ctx: RunContext, topo: dict) -> str | None:
         """What must be equal at the start and the end for the knot to count as unchanged (default:
         the knot type with its handedness, ``topo["signature"]``; ``None`` if the check failed)."""

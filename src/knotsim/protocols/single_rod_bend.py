@@ -258,9 +258,5 @@ class SingleRodBend(LoadingProtocol):
         (shorter than its skip + 1 s), else held. The geometric ``tightened`` does not decide."""
         if metrics.get("left_free_rope_level") is False:
             return "loose"
-        if self.slipped(ctx, metrics):
-            return "slipped"
-        if not metrics.get("decidable", False):
-            return "undecided"
-        return None
+        return self.slip_verdict(ctx, metrics)
 

@@ -439,9 +439,5 @@ class TwoRopeBend(LoadingProtocol):
         if (metrics.get("ropes_apart") and end.get("n_components") == 2 and end.get("component_types") is not None
                 and link_key(end) == "unlink"):
             return "untied"
-        if self.slipped(ctx, metrics):
-            return "slipped"
-        if not metrics.get("decidable", False):
-            return "undecided"
-        return None
+        return self.slip_verdict(ctx, metrics)
 
