@@ -295,18 +295,29 @@ def ref_surface_velocity_map(p, ha, hb, beta_a, beta_b, n):
     return B_tr, B_rot
 
 
-def ref_stick_friction(p, p_prev, theta, theta_prev, dt, xi0, mu_limit, kappa, ha, hb, fc, beta_a, beta_b):
-    """The elastic-stick law plainly: the spring ``ξ = ξ0 + u dt`` (``u`` the surface slip of
-    :func:`ref_surface_friction`), ``f = −κ F_n ξ`` while ``κ|ξ| <= μ_L``, ``−μ_L F_n ξ/|ξ|`` beyond;
-    ``Q = Bᵀ f`` (14,)."""
+def ref_surface_slip(p, p_prev, theta, theta_prev, dt, ha, hb, fc, beta_a, beta_b):
+    """``(F_n, B, u)``: the normal force (N), the velocity map ``B`` (3 × 14, of
+    :func:`ref_surface_velocity_map`) and the surface slip ``u = (I − n nᵀ) B ż`` (m/s),
+    ``ż = (z − z_prev)/dt``; ``None`` when the pair has no normal force."""
     n, fn = ref_surface_normal(fc)
     if n is None:
-        return np.zeros(14)
+        return None
     zdot = np.concatenate([np.asarray(p, float) - np.asarray(p_prev, float),
                            np.asarray(theta, float) - np.asarray(theta_prev, float)]) / dt
     B_tr, B_rot = ref_surface_velocity_map(p, ha, hb, beta_a, beta_b, n)
     B = B_tr + B_rot
-    xi = np.asarray(xi0, float) + dt * ((np.eye(3) - np.outer(n, n)) @ (B @ zdot))
+    return fn, B, (np.eye(3) - np.outer(n, n)) @ (B @ zdot)
+
+
+def ref_stick_friction(p, p_prev, theta, theta_prev, dt, xi0, mu_limit, kappa, ha, hb, fc, beta_a, beta_b):
+    """The elastic-stick law plainly: the spring ``ξ = ξ0 + u dt`` (``u`` the surface slip of
+    :func:`ref_surface_slip`), ``f = −κ F_n ξ`` while ``κ|ξ| <= μ_L``, ``−μ_L F_n ξ/|ξ|`` beyond;
+    ``Q = Bᵀ f`` (14,)."""
+    slip = ref_surface_slip(p, p_prev, theta, theta_prev, dt, ha, hb, fc, beta_a, beta_b)
+    if slip is None:
+        return np.zeros(14)
+    fn, B, u = slip
+    xi = np.asarray(xi0, float) + dt * u
     r = np.linalg.norm(xi)
     f = -kappa * fn * xi if kappa * r <= mu_limit else -mu_limit * fn * xi / r
     return B.T @ f
@@ -318,14 +329,10 @@ def ref_surface_friction(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, b
     ``u = (I − n nᵀ) B ż``, ``f = −μ F_n tanh(K2|u|/2) u/|u|``, ``K2 = 15/ν``,
     ``ż = (z − z_prev)/dt``. ``tanh`` rather than the literal ``2/(1 + e^{−K2 s}) − 1`` of :func:`ref_gamma`, which loses its
     relative accuracy in deep stick (``K2 s`` ~ 1e-4)."""
-    n, fn = ref_surface_normal(fc)
-    if n is None:
+    slip = ref_surface_slip(p, p_prev, theta, theta_prev, dt, ha, hb, fc, beta_a, beta_b)
+    if slip is None:
         return np.zeros(14)
-    zdot = np.concatenate([np.asarray(p, float) - np.asarray(p_prev, float),
-                           np.asarray(theta, float) - np.asarray(theta_prev, float)]) / dt
-    B_tr, B_rot = ref_surface_velocity_map(p, ha, hb, beta_a, beta_b, n)
-    B = B_tr + B_rot
-    u = (np.eye(3) - np.outer(n, n)) @ (B @ zdot)
+    fn, B, u = slip
     s = np.linalg.norm(u)
     if s == 0.0:
         return np.zeros(14)

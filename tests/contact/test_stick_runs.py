@@ -59,19 +59,25 @@ def _pressed_rods(stick=True):
     return ks.Simulation(m, bcs, ks.SolverOptions(dt=2e-3), interactions=[ci]), ci
 
 
-def test_pair_springs_continue_bit_for_bit(tmp_path):
-    whole, cw = _pressed_rods()
-    whole.run(0.24, progress=False)
-    assert cw.memory.stick_xi is not None and np.abs(cw.memory.stick_xi).max() > 0.0
-    first, _ = _pressed_rods()
-    first.run(0.12, progress=False)
+def _continued_equals_whole(make, half: float, tmp_path):
+    """``make()`` -> ``(simulation, interaction)``: a run of ``2 half`` s and one of ``half`` s, checkpointed,
+    restored into a fresh simulation and run ``half`` s more, end at the same positions and springs."""
+    whole, iw = make()
+    whole.run(2 * half, progress=False)
+    assert iw.memory.stick_xi is not None and np.abs(iw.memory.stick_xi).max() > 0.0  # springs in use
+    first, _ = make()
+    first.run(half, progress=False)
     first.save_checkpoint(tmp_path / "ck")
-    second, c2 = _pressed_rods()
+    second, i2 = make()
     second.restore(tmp_path / "ck")
-    second.run(0.12, progress=False)
+    second.run(half, progress=False)
     np.testing.assert_array_equal(second.state.q, whole.state.q)
-    np.testing.assert_array_equal(c2.memory.stick_xi, cw.memory.stick_xi)
-    np.testing.assert_array_equal(c2.memory.stick_sliding, cw.memory.stick_sliding)
+    np.testing.assert_array_equal(i2.memory.stick_xi, iw.memory.stick_xi)
+    np.testing.assert_array_equal(i2.memory.stick_sliding, iw.memory.stick_sliding)
+
+
+def test_pair_springs_continue_bit_for_bit(tmp_path):
+    _continued_equals_whole(_pressed_rods, 0.12, tmp_path)
 
 
 def _floor_rope():
@@ -86,17 +92,7 @@ def _floor_rope():
 
 
 def test_obstacle_springs_continue_bit_for_bit(tmp_path):
-    whole, fw = _floor_rope()
-    whole.run(0.08, progress=False)
-    assert np.abs(fw.memory.stick_xi).max() > 0.0
-    first, _ = _floor_rope()
-    first.run(0.04, progress=False)
-    first.save_checkpoint(tmp_path / "ck")
-    second, f2 = _floor_rope()
-    second.restore(tmp_path / "ck")
-    second.run(0.04, progress=False)
-    np.testing.assert_array_equal(second.state.q, whole.state.q)
-    np.testing.assert_array_equal(f2.memory.stick_xi, fw.memory.stick_xi)
+    _continued_equals_whole(_floor_rope, 0.04, tmp_path)
 
 
 def test_return_map():

@@ -245,8 +245,8 @@ class KnotSecurity(TwoRopeBend):
             f = float(np.dot(reactions["load"][:3], axis)) if "load" in reactions else math.nan
         ropes = [x[m.rod_node_start[r]:m.rod_node_start[r + 1]] for r in range(m.n_rods)]
         delta = float(p.contact.get("delta", 5e-4))
-        ta, tb = tail_lengths(ropes, ctx.data["free_ends"], ctx.radius, delta)
-        outside = tail_lengths(ropes, ctx.data["all_ends"], ctx.radius, delta)
+        outside = tail_lengths(ropes, ctx.data["all_ends"], ctx.radius, delta)  # standing ends, then the tails
+        ta, tb = outside[2], outside[3]
         total = sum(float(np.sum(np.linalg.norm(np.diff(r, axis=0), axis=1))) for r in ropes)
         return {"F": f, "F_norm": f * ctx.radius**2 / ctx.EI, "u_pull": u, "tail_a": ta, "tail_b": tb,
                 "rope_gap": rope_gap(ropes), "in_knot": max(total - float(sum(outside)), 0.0)}
