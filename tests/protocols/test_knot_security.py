@@ -34,7 +34,7 @@ def test_stages_are_force_groups_with_their_windows():
     assert load["start"] == pytest.approx(1.2) and load["type"] == "force"
     assert np.linalg.norm(load["ramp"]["from"]) == pytest.approx(0.002)
     np.testing.assert_allclose(np.asarray(load["ramp"]["rate"]) / np.linalg.norm(load["ramp"]["rate"]),
-                               ctx.data["axis"])
+                               ctx.data["loaded_local"][0][2])
 
 
 def test_slide_and_hold_modes():
@@ -54,9 +54,48 @@ def test_bad_inputs_name_the_field(key, value, field):
         _spec(**{key: value})
 
 
-def test_needs_two_ropes():
-    with pytest.raises(ConfigError, match="knot"):
+def test_one_rope_knot_is_anchored_and_loaded_at_both_ends():
+    """A one-rope knot: its held hint held still, both ends set, relaxed and loaded apart."""
+    _, ctx, _, _ = build_protocol_run("knot-security", "single_rod_reef", quick=True,
+                                      overrides={"set_tension": 0.02, "hold_tension": 0.002, "load_rate": 0.004})
+    bcs = {b["name"]: b for b in ctx.bc}
+    assert bcs["knot_hold"]["type"] == "hold" and "held" not in bcs
+    n = len(ctx.geometry.ropes[0])
+    assert bcs["knot_hold"]["nodes"] == [ctx.geometry.held[0].node] and 2 <= bcs["knot_hold"]["nodes"][0] <= n - 3
+    for end in ("start", "end"):
+        assert np.linalg.norm(bcs[f"set_{end}"]["ramp"]["to"]) == pytest.approx(0.02)
+        assert np.linalg.norm(bcs[f"relax_{end}"]["ramp"]["to"]) == pytest.approx(0.002)
+    a, b = bcs["load_start"]["ramp"]["rate"], bcs["load"]["ramp"]["rate"]
+    np.testing.assert_allclose(a, -np.asarray(b))  # apart, equal and opposite
+    x = ctx.geometry.ropes[0]
+    np.testing.assert_allclose(np.asarray(b) / 0.004, (x[-1] - x[0]) / np.linalg.norm(x[-1] - x[0]))
+    assert list(bcs["load_start"]["nodes"]) == [0, 1] and [k % n for k in bcs["load"]["nodes"]] == [n - 2, n - 1]
+
+
+def test_one_rope_knot_needs_an_anchor_and_no_bend_ends():
+    with pytest.raises(ConfigError, match="^knot:.*held hint"):
         build_protocol_run("knot-security", "overhand_n1", quick=True)
+    with pytest.raises(ConfigError, match="^held_end:"):
+        build_protocol_run("knot-security", "single_rod_granny", quick=True, overrides={"held_end": "0:0"})
+
+
+def test_self_tail_lengths_find_where_a_rope_meets_itself():
+    """A rope along x that turns back on itself (centre lines 2h apart, touching) over its last part:
+    the first end is outside the knot up to where the returning strand begins, the last end not at all."""
+    from knotsim.protocols.two_rope_bend import self_tail_lengths
+
+    h, seg = 2e-3, 1e-3
+    out = np.column_stack([np.arange(0.0, 0.5 + 1e-12, seg), np.zeros(501), np.zeros(501)])
+    phi = np.linspace(-np.pi / 2, np.pi / 2, 8)[1:-1]
+    turn = np.column_stack([0.5 + h * np.cos(phi), h + h * np.sin(phi), np.zeros(phi.size)])
+    back = np.column_stack([np.arange(0.5, 0.3 - 1e-12, -seg), np.full(201, 2 * h), np.zeros(201)])
+    x = np.vstack([out, turn, back])
+    first, last = self_tail_lengths(x, h, 5e-4)
+    mean_seg = float(np.mean(np.linalg.norm(np.diff(x, axis=0), axis=1)))
+    assert first == pytest.approx(0.3, abs=3 * mean_seg)
+    assert last <= mean_seg
+    straight = np.column_stack([np.linspace(0, 1, 101), np.zeros(101), np.zeros(101)])
+    assert self_tail_lengths(straight, h, 5e-4) == pytest.approx([1.0, 0.0])
 
 
 class _Ctx:
@@ -120,18 +159,22 @@ def test_hold_metrics_measure_the_drift():
     assert m["drift_pull_late"] == pytest.approx(1e-5 * (10.49 - 1.0) / 2, rel=0.01)
 
 
-def test_short_run_end_to_end():
-    """A short quick run: it sets, relaxes and loads the reef bend and reports the metrics."""
-    res = ks.run_protocol("knot-security", "reef_bend", quick=True,
+@pytest.mark.parametrize("knot", ["reef_bend", "single_rod_reef"])
+def test_short_run_end_to_end(knot):
+    """A short quick run: it sets, relaxes and loads the reef bend (or the one-rope reef of the seed
+    study) and reports the metrics."""
+    res = ks.run_protocol("knot-security", knot, quick=True,
                           overrides={"set_ramp": 0.2, "set_hold": 0.2, "relax_time": 0.1, "load_time": 0.6,
                                      "transient": 0.1})
     m = res["metrics"]
     assert res["outcome"] in ("held", "slipped", "untied", "undecided")
-    assert m["set_tension"] == 0.01 and math.isfinite(m["in_knot_set"]) and m["in_knot_set"] > 0
+    assert m["set_tension"] == 0.01 and math.isfinite(m["in_knot_set"]) and 0 < m["in_knot_set"] < 1.0
     assert ("slip_load" in m) and m["largest_load_held"] >= 0.001
     log = res.log
     assert {"F", "u_pull", "in_knot", "tail_a"} <= set(log.columns)
-    assert np.isnan(log["F"].iloc[0]) and np.isfinite(log["F"].iloc[-1])
+    assert np.isnan(log["F"].iloc[0]) and np.isfinite(log["F"].iloc[-1]) and np.isfinite(log["u_pull"]).all()
+    assert np.isnan(log["tail_a"]).all() == (knot == "single_rod_reef")  # one rope: no free tails
+    assert ("ropes_apart" in m) == (knot == "reef_bend")
 
 
 def test_none_text_unsets_a_contact_setting():

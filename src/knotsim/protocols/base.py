@@ -116,8 +116,8 @@ class LoadingProtocol:
     fixed_geometry: tuple[str, ...] = ()
     #: Overrides applied with ``quick=True`` (coarse, short runs).
     quick: dict[str, Any] = {}
-    #: Number of ropes the protocol loads (``None``: as many as its :attr:`default_knot` has).
-    n_ropes: int | None = None
+    #: Numbers of ropes the protocol loads (``None``: as many as its :attr:`default_knot` has).
+    n_ropes: tuple[int, ...] | None = None
 
     # -- hooks ---------------------------------------------------------------------------
     def setup(self, ctx: RunContext) -> None:

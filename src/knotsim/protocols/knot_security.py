@@ -1,8 +1,9 @@
 """Protocol ``knot-security``: set a bend, then load it as it is used (docs/physics.md §4.4).
 
 A knot's strength is a property of how it was set as much as of the knot. This protocol makes the
-setting explicit and loads the set knot in one of three ways. Two-rope bends (the knot's ``held``
-and ``pulled`` hints name the standing ends; the other two ends are the tails).
+setting explicit and loads the set knot in one of four ways. Two-rope bends (the knot's ``held``
+and ``pulled`` hints name the standing ends; the other two ends are the tails) and one-rope knots
+(below).
 
 Stages (times from the end of any ``settle_time``):
 
@@ -26,6 +27,16 @@ Stages (times from the end of any ``settle_time``):
      back, ``pulse_period`` s each (a jerk test): the knot has **spilled** after the first pulse at
      whose end the loaded end is more than ``spill_distance`` (m) from where the load began
      (``cycles_to_spill``).
+
+**One-rope knots** (the single-rope reef and granny of the seed study, ``single_rod_reef`` and
+``single_rod_granny``): the node of the knot's ``held`` hint (the bottom of the first overhand's
+loop) is held still for the whole run (positions only, a peg through the loop); both ends are set
+and relaxed as above, then both are loaded, apart along the axis from the first end to the last,
+in the same mode (each end carries the load ``F``; ``u_pull`` is the mean of the two ends'
+displacements along their load directions; ``"slide"`` moves both at ``pull_speed`` and reports
+the mean of their reactions). There are no free tails: ``tail_a``, ``tail_b`` and ``rope_gap`` are
+NaN, ``drift_tails`` is ``None``, and ``in_knot`` counts each end from its tip to the first node
+within contact distance of another part of the rope.
 
 With ``contact.stick_distance`` (the default here: 10 µm) the friction holds below its limit without
 creep (docs/physics.md §3.6), so a knot below its slip load does not move; ``contact.mu_static``
@@ -73,6 +84,7 @@ from knotsim.protocols.two_rope_bend import (
     ends_interleaved,
     free_tail_ends,
     rope_gap,
+    self_tail_lengths,
     tail_lengths,
 )
 
@@ -101,9 +113,11 @@ def _positive(params, key: str, allow_zero: bool = False) -> float:
 
 class KnotSecurity(TwoRopeBend):
     name = "knot-security"
-    description = "Set a bend under a known tension, relax it, then load a standing end (ramp, hold or slide)"
+    description = ("Set a bend or a one-rope knot under a known tension, relax it, then load it (ramp, hold, slide "
+                   "or pulses)")
     kinds: tuple[str, ...] = ()
     default_knot = "reef_bend"
+    n_ropes = (2, 1)
     defaults = {
         "mu": 0.3,
         "dt": 2e-3,
@@ -138,8 +152,9 @@ class KnotSecurity(TwoRopeBend):
     def setup(self, ctx: RunContext) -> None:
         geo = ctx.geometry
         p = ctx.params
-        if len(geo.ropes) != 2:
-            raise ConfigError("knot", f"knot-security loads bends of two ropes; {geo.name!r} has {len(geo.ropes)}")
+        if len(geo.ropes) not in (1, 2):
+            raise ConfigError("knot", f"knot-security loads bends of two ropes and one-rope knots; {geo.name!r} has "
+                                      f"{len(geo.ropes)} ropes")
         mode = p["load"]
         if mode not in LOAD_MODES:
             raise ConfigError("load", f"must be one of {', '.join(LOAD_MODES)}, got {mode!r}")
@@ -150,6 +165,34 @@ class KnotSecurity(TwoRopeBend):
         t_hold = _positive(p, "hold_tension", allow_zero=True)
         if t_hold > t_set_force:
             raise ConfigError("hold_tension", f"must be at most set_tension = {t_set_force:g} N, got {t_hold:g}")
+        t_pre = t_set + t_relax
+        ctx.data.update(t_pre=t_pre, t_set=t_set)
+
+        def outward(rope: int, node: int):
+            x = geo.ropes[rope]
+            inner = min(5, len(x) - 1)
+            return unit(x[node] - x[inner if node == 0 else len(x) - 1 - inner])
+
+        def set_and_relax(name: str, rope: int, node: int) -> None:
+            nodes = end_group_nodes(node, len(geo.ropes[rope]))
+            d = outward(rope, node)
+            ctx.add_bc("force", f"set_{name}", rod=rope, nodes=nodes, stop=t_set,
+                       ramp={"from": [0.0, 0.0, 0.0], "to": list(t_set_force * d), "duration": t_set_ramp})
+            ctx.add_bc("force", f"relax_{name}", rod=rope, nodes=nodes, start=t_set, stop=t_pre,
+                       ramp={"from": list(t_set_force * d), "to": list(t_hold * d), "duration": t_relax})
+
+        if len(geo.ropes) == 1:
+            loaded = self._setup_one_rope(ctx, set_and_relax)
+        else:
+            loaded = self._setup_bend(ctx, set_and_relax)
+        for group, rope, nodes, axis in loaded:
+            self._load_stage(ctx, group, rope, nodes, axis, t_pre, t_hold)
+        ctx.data["loaded_local"] = [(rope, nodes, axis) for _, rope, nodes, axis in loaded]
+
+    def _setup_bend(self, ctx: RunContext, set_and_relax) -> list:
+        """A bend: rope A's standing end clamped, the other three ends set; rope B's standing end loaded."""
+        geo = ctx.geometry
+        p = ctx.params
         hint_held, hint_pulled = default_ends(geo)
         he, pe = p["held_end"], p["pulled_end"]
         held_list = (parse_end(he, geo, "held_end"),) if he else hint_held
@@ -161,33 +204,50 @@ class KnotSecurity(TwoRopeBend):
         if held.rope == pulled.rope:
             raise ConfigError("knot", "the held and pulled ends must be on different ropes")
         axis = unit(geo.ropes[pulled.rope][pulled.node] - geo.ropes[held.rope][held.node])
-        t_pre = t_set + t_relax
-        ctx.data.update(axis=axis, held=held, pulled=pulled, held_end=0 if held.node == 0 else 1,
-                        pulled_end=0 if pulled.node == 0 else 1, t_pre=t_pre, t_set=t_set)
-
-        def outward(rope: int, node: int):
-            x = geo.ropes[rope]
-            inner = min(5, len(x) - 1)
-            return unit(x[node] - x[inner if node == 0 else len(x) - 1 - inner])
-
+        ctx.data.update(held=held, pulled=pulled, held_end=0 if held.node == 0 else 1,
+                        pulled_end=0 if pulled.node == 0 else 1)
         ctx.add_bc("clamp", "held", rod=held.rope, nodes=end_group_nodes(held.node, len(geo.ropes[held.rope])))
-        loaded = [("pull", pulled.rope, pulled.node)]
+        set_and_relax("pull", pulled.rope, pulled.node)
         for name, (rope, end) in zip(("tail_a", "tail_b"), free_tail_ends(held, pulled), strict=True):
-            loaded.append((name, rope, 0 if end == 0 else len(geo.ropes[rope]) - 1))
-        for name, rope, node in loaded:
-            nodes = end_group_nodes(node, len(geo.ropes[rope]))
-            d = outward(rope, node)
-            ctx.add_bc("force", f"set_{name}", rod=rope, nodes=nodes, stop=t_set,
-                       ramp={"from": [0.0, 0.0, 0.0], "to": list(t_set_force * d), "duration": t_set_ramp})
-            ctx.add_bc("force", f"relax_{name}", rod=rope, nodes=nodes, start=t_set, stop=t_pre,
-                       ramp={"from": list(t_set_force * d), "to": list(t_hold * d), "duration": t_relax})
-        pull_nodes = end_group_nodes(pulled.node, len(geo.ropes[pulled.rope]))
+            set_and_relax(name, rope, 0 if end == 0 else len(geo.ropes[rope]) - 1)
+        ctx.data["free_ends"] = free_tail_ends(held, pulled)
+        ctx.data["all_ends"] = [(held.rope, 0 if held.node == 0 else 1), (pulled.rope, 0 if pulled.node == 0 else 1),
+                                *ctx.data["free_ends"]]
+        ctx.data["ends_interleaved"] = ends_interleaved(geo.ropes, [(held.rope, held.node), (pulled.rope, pulled.node)])
+        return [("load", pulled.rope, end_group_nodes(pulled.node, len(geo.ropes[pulled.rope])), axis)]
+
+    def _setup_one_rope(self, ctx: RunContext, set_and_relax) -> list:
+        """A one-rope knot (the single-rope reef and granny of the seed study): the knot's ``held``
+        hint held still (positions only, the whole run: the peg that stops the first overhand
+        inverting); both ends set, then both loaded apart along the axis between them."""
+        geo = ctx.geometry
+        p = ctx.params
+        if p["held_end"] or p["pulled_end"]:
+            raise ConfigError("held_end" if p["held_end"] else "pulled_end",
+                              "a one-rope knot is loaded at both ends, anchored at its held hint; held_end and "
+                              "pulled_end are for bends, leave them empty")
+        n = len(geo.ropes[0])
+        anchor = sorted({min(max(h.node, 2), n - 3) for h in geo.held if h.rope == 0 and 0 < h.node < n - 1})
+        if not anchor:
+            raise ConfigError("knot", f"one-rope knot {geo.name!r} has no interior [loading] held hint (the node "
+                                      "that anchors the knot, e.g. the bottom of the first overhand's loop)")
+        ctx.add_bc("hold", "knot_hold", rod=0, nodes=anchor)
+        axis = unit(geo.ropes[0][n - 1] - geo.ropes[0][0])
+        set_and_relax("start", 0, 0)
+        set_and_relax("end", 0, n - 1)
+        ctx.data.update(anchor=anchor, free_ends=[], all_ends=[(0, 0), (0, 1)])
+        return [("load_start", 0, end_group_nodes(0, n), -axis), ("load", 0, end_group_nodes(n - 1, n), axis)]
+
+    def _load_stage(self, ctx: RunContext, group: str, rope: int, nodes, axis, t_pre: float, t_hold: float) -> None:
+        """The load stage's boundary conditions on one loaded end (``axis`` its outward direction)."""
+        p = ctx.params
+        mode = p["load"]
         if mode == "ramp":
-            ctx.add_bc("force", "load", rod=pulled.rope, nodes=pull_nodes, start=t_pre,
+            ctx.add_bc("force", group, rod=rope, nodes=nodes, start=t_pre,
                        ramp={"from": list(t_hold * axis), "rate": list(_positive(p, "load_rate") * axis)})
         elif mode == "hold":
             rise = _positive(p, "transient")
-            ctx.add_bc("force", "load", rod=pulled.rope, nodes=pull_nodes, start=t_pre,
+            ctx.add_bc("force", group, rod=rope, nodes=nodes, start=t_pre,
                        ramp={"from": list(t_hold * axis), "to": list(_positive(p, "hold_load") * axis),
                              "duration": rise})
         elif mode == "pulses":
@@ -197,23 +257,25 @@ class KnotSecurity(TwoRopeBend):
                 raise ConfigError("n_pulses", f"must be a positive integer, got {n!r}")
             for i in range(int(n)):  # each pulse: a rise and a fall (set-up, once)
                 t0 = t_pre + i * period
-                ctx.add_bc("force", f"load_up_{i}", rod=pulled.rope, nodes=pull_nodes, start=t0,
+                ctx.add_bc("force", f"{group}_up_{i}", rod=rope, nodes=nodes, start=t0,
                            stop=t0 + 0.5 * period,
                            ramp={"from": list(t_hold * axis), "to": list(peak * axis), "duration": 0.5 * period})
-                ctx.add_bc("force", f"load_down_{i}", rod=pulled.rope, nodes=pull_nodes, start=t0 + 0.5 * period,
+                ctx.add_bc("force", f"{group}_down_{i}", rod=rope, nodes=nodes, start=t0 + 0.5 * period,
                            stop=t0 + period,
                            ramp={"from": list(peak * axis), "to": list(t_hold * axis), "duration": 0.5 * period})
-            ctx.add_bc("force", "load", rod=pulled.rope, nodes=pull_nodes, start=t_pre + int(n) * period,
+            ctx.add_bc("force", group, rod=rope, nodes=nodes, start=t_pre + int(n) * period,
                        force=list(t_hold * axis))
         else:
-            ctx.add_bc("move", "load", rod=pulled.rope, nodes=pull_nodes, start=t_pre,
+            ctx.add_bc("move", group, rod=rope, nodes=nodes, start=t_pre,
                        velocity=list(_positive(p, "pull_speed") * axis))
-        ctx.data["pull_local"] = (pulled.rope, pull_nodes)
-        ctx.data["x_pull0"] = np.mean([geo.ropes[pulled.rope][i] for i in pull_nodes], axis=0)
-        ctx.data["free_ends"] = free_tail_ends(held, pulled)
-        ctx.data["all_ends"] = [(held.rope, 0 if held.node == 0 else 1), (pulled.rope, 0 if pulled.node == 0 else 1),
-                                *ctx.data["free_ends"]]
-        ctx.data["ends_interleaved"] = ends_interleaved(geo.ropes, [(held.rope, held.node), (pulled.rope, pulled.node)])
+
+    def prepare(self, ctx: RunContext) -> None:
+        geo = ctx.geometry
+        loaded = []
+        for rope, nodes, axis in ctx.data["loaded_local"]:
+            x0 = np.mean([geo.ropes[rope][i] for i in nodes], axis=0)
+            loaded.append((ctx.model.global_nodes(rope, nodes), np.asarray(axis, float), x0))
+        ctx.data["loaded"] = loaded
 
     def duration(self, ctx: RunContext) -> float:
         """Set, relax and the load stage (``load_time``, or 20 s for ``"ramp"`` and ``"slide"`` and
@@ -228,13 +290,13 @@ class KnotSecurity(TwoRopeBend):
     def record(self, ctx: RunContext, q, t, reactions) -> dict:
         m = ctx.model
         p = ctx.params
-        axis = ctx.data["axis"]
         x = m.node_positions(q)
-        u = float(np.dot(x[ctx.data["pull_nodes"]].mean(axis=0) - ctx.data["x_pull0"], axis))
+        # the loaded ends' mean displacement along their own load directions
+        u = float(np.mean([np.dot(x[nodes].mean(axis=0) - x0, axis) for nodes, axis, x0 in ctx.data["loaded"]]))
         t_load = float(t) - pull_start(ctx)
         t_hold = float(p["hold_tension"])
         if t_load < 0:
-            f = math.nan  # setting and relaxing: three ends loaded along their own directions
+            f = math.nan  # setting and relaxing: the ends loaded along their own directions
         elif p["load"] == "ramp":
             f = t_hold + float(p["load_rate"]) * t_load
         elif p["load"] == "hold":
@@ -242,14 +304,20 @@ class KnotSecurity(TwoRopeBend):
         elif p["load"] == "pulses":
             f = pulse_load(t_load, t_hold, float(p["pulse_load"]), float(p["pulse_period"]), int(p["n_pulses"]))
         else:
-            f = float(np.dot(reactions["load"][:3], axis)) if "load" in reactions else math.nan
+            groups = ("load_start", "load") if len(ctx.data["loaded"]) == 2 else ("load",)
+            f = (float(np.mean([np.dot(reactions[g][:3], a) for g, (_, a, _) in zip(groups, ctx.data["loaded"],
+                                                                                     strict=True)]))
+                 if all(g in reactions for g in groups) else math.nan)
         ropes = [x[m.rod_node_start[r]:m.rod_node_start[r + 1]] for r in range(m.n_rods)]
         delta = float(p.contact.get("delta", 5e-4))
-        outside = tail_lengths(ropes, ctx.data["all_ends"], ctx.radius, delta)  # standing ends, then the tails
-        ta, tb = outside[2], outside[3]
         total = sum(float(np.sum(np.linalg.norm(np.diff(r, axis=0), axis=1))) for r in ropes)
-        return {"F": f, "F_norm": f * ctx.radius**2 / ctx.EI, "u_pull": u, "tail_a": ta, "tail_b": tb,
-                "rope_gap": rope_gap(ropes), "in_knot": max(total - float(sum(outside)), 0.0)}
+        if len(ropes) == 1:
+            outside = self_tail_lengths(ropes[0], ctx.radius, delta)
+            return {"F": f, "F_norm": f * ctx.radius**2 / ctx.EI, "u_pull": u, "tail_a": math.nan,
+                    "tail_b": math.nan, "rope_gap": math.nan, "in_knot": max(total - float(sum(outside)), 0.0)}
+        outside = tail_lengths(ropes, ctx.data["all_ends"], ctx.radius, delta)  # standing ends, then the tails
+        return {"F": f, "F_norm": f * ctx.radius**2 / ctx.EI, "u_pull": u, "tail_a": outside[2],
+                "tail_b": outside[3], "rope_gap": rope_gap(ropes), "in_knot": max(total - float(sum(outside)), 0.0)}
 
     def metrics(self, ctx: RunContext, log) -> dict:
         p = ctx.params
@@ -270,7 +338,7 @@ class KnotSecurity(TwoRopeBend):
             out["set_creep"] = (float(np.polyfit(t_all[tail], ink[tail], 1)[0])
                                 if np.count_nonzero(tail) >= 3 else None)
         out.update(bend_names(ctx))
-        if "rope_gap" in log.columns and t_all.size:
+        if "rope_gap" in log.columns and t_all.size and np.isfinite(log["rope_gap"].iloc[-1]):  # a bend's two ropes
             gap = float(log["rope_gap"].iloc[-1])
             out["rope_gap_final"] = gap
             out["ropes_apart"] = bool(gap > APART_RADII * ctx.radius)
@@ -324,9 +392,12 @@ class KnotSecurity(TwoRopeBend):
                 span = float(tw[-1] - tw[0])
                 out["hold_window"] = span
                 out["drift_pull"] = float(up[-1] - up[0])
-                out["drift_tails"] = float(tails[0] - tails[-1])
+                if not np.all(np.isfinite(tails)):  # a one-rope knot has no free tails
+                    tails = None
+                out["drift_tails"] = float(tails[0] - tails[-1]) if tails is not None else None
                 out["drift_pull_rate"] = float(np.polyfit(tw, up, 1)[0]) if span > 0 else None
-                out["drift_tails_rate"] = float(-np.polyfit(tw, tails, 1)[0]) if span > 0 else None
+                out["drift_tails_rate"] = (float(-np.polyfit(tw, tails, 1)[0])
+                                           if span > 0 and tails is not None else None)
                 # the second half: after the knot has taken up the load (the first seconds of a hold
                 # are its elastic and frictional adjustment)
                 late = tw >= tw[0] + 0.5 * span

@@ -110,10 +110,10 @@ def _geometry_keys(p: Params, geo) -> None:
     p.values["length"] = float(geo.length)
 
 
-def _rope_count(proto: LoadingProtocol) -> int:
+def _rope_counts(proto: LoadingProtocol) -> tuple[int, ...]:
     from knotsim.knots.library import load_knot_spec
 
-    return proto.n_ropes if proto.n_ropes is not None else len(load_knot_spec(proto.default_knot).ropes)
+    return proto.n_ropes if proto.n_ropes is not None else (len(load_knot_spec(proto.default_knot).ropes),)
 
 
 def _check_fit(proto: LoadingProtocol, geo) -> None:
@@ -122,13 +122,13 @@ def _check_fit(proto: LoadingProtocol, geo) -> None:
     from knotsim.protocols.geometry import CHOOSE_MATRICES
     from knotsim.protocols.registry import protocols
 
-    want, have = _rope_count(proto), len(geo.ropes)
-    if want == have:
+    want, have = _rope_counts(proto), len(geo.ropes)
+    if have in want:
         return
-    fits = [p.name for p in protocols().values() if _rope_count(p) == have]
-    rope = lambda n: f"{n} rope" + ("s" if n != 1 else "")  # noqa: E731
+    fits = [p.name for p in protocols().values() if have in _rope_counts(p)]
+    ropes = " or ".join(str(n) for n in want) + " rope" + ("s" if want != (1,) else "")
     choose = f"{CHOOSE_MATRICES}, or " if geo.found else ""
-    raise ConfigError("protocol", f"{proto.name} loads {rope(want)}, but found {geo.describe_ropes()}; {choose}"
+    raise ConfigError("protocol", f"{proto.name} loads {ropes}, but found {geo.describe_ropes()}; {choose}"
                                   + (f"use --protocol {' or '.join(fits)}" if fits else "no protocol fits it"))
 
 

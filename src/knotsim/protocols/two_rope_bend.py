@@ -121,6 +121,24 @@ def tail_lengths(ropes: list[np.ndarray], free_ends: list[tuple[int, int]], radi
     return out
 
 
+def self_tail_lengths(x: np.ndarray, radius: float, delta: float) -> list[float]:
+    """Length (m) of each end of one rope outside its own knot, ``[first end, last end]``: from the
+    end to the first node within the contact distance of the rope itself (cut-off as in
+    :func:`tail_lengths`), not counting the nodes next to it along the rope (within half a turn of
+    that distance, ``π`` x the cut-off of arc length: a bend cannot bring them closer).
+
+    ``x`` ``(N, 3)`` node positions (m); ``radius`` and ``delta`` the rod radius and contact
+    tolerance (m)."""
+    seg = float(np.mean(np.linalg.norm(np.diff(x, axis=0), axis=1)))
+    cutoff = 2.0 * radius + delta + 0.5 * seg
+    skip = int(np.ceil(np.pi * cutoff / seg)) + 1
+    pairs = cKDTree(x).query_pairs(cutoff, output_type="ndarray")
+    far = pairs[np.abs(pairs[:, 0] - pairs[:, 1]) > skip] if len(pairs) else pairs
+    if far.size == 0:
+        return [(len(x) - 1) * seg, 0.0]  # no knot: the whole rope counted once, from its first end
+    return [float(far.min()) * seg, float(len(x) - 1 - far.max()) * seg]
+
+
 #: The ropes are *apart* when no node of one is within this many rod radii of a node of the other
 #: (centreline distance 4h: one rope diameter of clear space between their surfaces).
 APART_RADII = 4.0
