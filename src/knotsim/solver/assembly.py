@@ -189,8 +189,8 @@ def merge_pattern(n, indptr_e, indices_e, extra_dofs):
     Returns ``(indptr, indices, remap)`` where ``remap[p]`` is the new slot of the fixed pattern's
     slot ``p``, so maps computed once on the fixed pattern stay valid via ``remap[old_map]``.
     Rows stay sorted within each column. Cost: linear in the number of entries (a marker array
-    removes duplicates; each column's few new rows are insertion-sorted and merged with the fixed
-    pattern's sorted rows).
+    removes duplicates; each column's few new rows are inserted in order among its fixed rows,
+    whose new slots are then found by binary search).
     """
     k, m = extra_dofs.shape
     # rows contributed by the blocks, per column (with duplicates)
@@ -209,7 +209,6 @@ def merge_pattern(n, indptr_e, indices_e, extra_dofs):
                 xrows[fill[c]] = extra_dofs[b, i]
                 fill[c] += 1
     mark = np.full(n, -1, np.int64)
-    tmp = np.empty(max(1, m * m * k), np.int64)
     indptr = np.zeros(n + 1, np.int64)
     out = np.empty(indptr_e[n] + cnt[n], np.int64)
     remap = np.empty(indices_e.shape[0], np.int64)
@@ -219,29 +218,24 @@ def merge_pattern(n, indptr_e, indices_e, extra_dofs):
         hi = indptr_e[c + 1]
         for p in range(lo, hi):
             mark[indices_e[p]] = c
-        nt = 0
+        # the column's rows: the fixed pattern's (sorted), each new one inserted in order
+        nf = hi - lo
+        out[nnz:nnz + nf] = indices_e[lo:hi]
+        nc = nf
         for p in range(cnt[c], cnt[c + 1]):
             r = xrows[p]
             if mark[r] != c:
                 mark[r] = c
-                # insertion into the sorted list tmp[:nt]
-                i = nt
-                while i > 0 and tmp[i - 1] > r:
-                    tmp[i] = tmp[i - 1]
+                i = nnz + nc
+                while i > nnz and out[i - 1] > r:
+                    out[i] = out[i - 1]
                     i -= 1
-                tmp[i] = r
-                nt += 1
-        # merge the fixed rows indices_e[lo:hi] (sorted) with tmp[:nt] (sorted, disjoint)
-        a = lo
-        t = 0
-        while a < hi or t < nt:
-            if t >= nt or (a < hi and indices_e[a] < tmp[t]):
-                remap[a] = nnz
-                out[nnz] = indices_e[a]
-                a += 1
-            else:
-                out[nnz] = tmp[t]
-                t += 1
-            nnz += 1
+                out[i] = r
+                nc += 1
+        if nc > nf:
+            remap[lo:hi] = np.searchsorted(out[nnz:nnz + nc], indices_e[lo:hi]) + nnz
+        else:
+            remap[lo:hi] = np.arange(nnz, nnz + nf)
+        nnz += nc
         indptr[c + 1] = nnz
     return indptr, out[:nnz].copy(), remap

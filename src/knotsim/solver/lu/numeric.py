@@ -287,22 +287,18 @@ def mf_factorize(
                     PU[_u(po + k * (mp + 1))] = piv
                     return f + k
                 inv = 1.0 / piv
-                for i in range(k + 1, w):  # the pivot rows: L11 in place, U11 and U12
-                    oi = i * mp
+                # rows k+1..w-1 are the pivot rows (L11 in place, U11 and U12), then the r rows
+                # from wp on (L21 by rows; their columns from wp on are the Schur complement's)
+                for i in range(k + 1, w + r):
+                    oi = (i if i < w else i - w + wp) * mp
                     lik = front[_u(oi + k)] * inv
                     front[_u(oi + k)] = lik
                     if lik != 0.0:
                         for j in range(k + 1, w):
                             front[_u(oi + j)] -= lik * front[_u(ok + j)]
-                        for j in range(wp, mp):
-                            front[_u(oi + j)] -= lik * front[_u(ok + j)]
-                for i in range(wp, wp + r):  # L21 by rows
-                    oi = i * mp
-                    lik = front[_u(oi + k)] * inv
-                    front[_u(oi + k)] = lik
-                    if lik != 0.0:
-                        for j in range(k + 1, w):
-                            front[_u(oi + j)] -= lik * front[_u(ok + j)]
+                        if i < w:
+                            for j in range(wp, mp):
+                                front[_u(oi + j)] -= lik * front[_u(ok + j)]
             for k in range(w):
                 ok = k * mp
                 pk = po + k * mp
