@@ -70,8 +70,9 @@ def critical_friction(knot: str, load: float, *, mu_low: float = 0.05, mu_high: 
 
     Parameters
     ----------
-    knot : a two-rope bend of the library (or a drawing path).
-    load : the load held on the standing end, N (the protocol's ``hold_load``).
+    knot : a two-rope bend or an anchored one-rope knot of the library (or a drawing path).
+    load : the load held on the standing end (on each end of a one-rope knot), N (the protocol's
+        ``hold_load``).
     mu_low, mu_high : the bracket searched; the knot must slip at ``mu_low`` and hold at ``mu_high``
         (else the answer says so with an open bracket).
     tol : width of the final bracket in μ.
