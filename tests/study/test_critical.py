@@ -21,7 +21,7 @@ def fake_runner(mu_c, calls):
         ok = mu >= mu_c
         return {"outcome": "held" if ok else "slipped",
                 "metrics": {"slip_onset": None if ok else {"time": 1.0}, "decidable": True,
-                            "drift_pull": 1e-6 if ok else 0.3}}
+                            "drift_pull": 1e-6 if ok else 0.3, "drift_pull_late": 1e-6 if ok else 0.2}}
 
     return run
 
@@ -45,9 +45,11 @@ def test_open_brackets():
 
 
 def test_hold_is_decided_by_motion():
-    base = {"outcome": "held", "metrics": {"slip_onset": None, "decidable": True, "drift_pull": 2e-4}}
-    assert holds(base, 1e-3)
-    assert not holds({**base, "metrics": {**base["metrics"], "drift_pull": 2e-3}}, 1e-3)  # crept too far
+    base = {"outcome": "held", "metrics": {"slip_onset": None, "decidable": True, "drift_pull": 3e-3,
+                                           "drift_pull_late": 2e-4}}
+    assert holds(base, 1e-3)  # the take-up in the first half of the hold does not count
+    assert not holds({**base, "metrics": {**base["metrics"], "drift_pull_late": 2e-3}}, 1e-3)  # crept too far
+    assert not holds({**base, "metrics": {**base["metrics"], "drift_pull_late": None}}, 1e-3)  # not measured
     assert not holds({**base, "outcome": "untied"}, 1e-3)
     with pytest.raises(ConfigError, match="load_time"):
         holds({**base, "metrics": {**base["metrics"], "decidable": False}}, 1e-3)

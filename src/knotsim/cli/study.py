@@ -191,7 +191,7 @@ def animate(run_dir: Path, case_id: str | None, out: Path, fps: float, every: in
 @click.option("--mu-high", type=float, default=0.8, show_default=True, help="Top of the bracket searched.")
 @click.option("--tol", type=float, default=0.02, show_default=True, help="Width of the final bracket in mu.")
 @click.option("--drift-limit", type=float, default=1e-3, show_default=True,
-              help="m; a hold that moved the loaded end this far counts as slipping.")
+              help="m; a hold that moved the loaded end this far over its second half counts as slipping.")
 @click.option("--set", "assignments", multiple=True, metavar="KEY=VALUE",
               help="A knot-security parameter (repeatable), e.g. --set set_tension=0.02.")
 @click.option("--quick", is_flag=True, help="The protocol's coarse, short settings.")
