@@ -149,6 +149,12 @@ def test_hold_that_drifts_has_slipped():
     assert m["slip_onset"]["criterion"] == "drift" and KnotSecurity().slipped(None, m)
 
 
+def test_hold_drawn_in_is_settling_not_slipping():
+    """The loaded end drawn in against the load (a knot still settling after its set) is no slip."""
+    m = KnotSecurity().metrics(_Ctx(load="hold"), _log(mode="hold", drift=-4e-3))
+    assert m["drift_pull_late"] < -0.01 and m["slip_onset"] is None and not KnotSecurity().slipped(None, m)
+
+
 def test_hold_metrics_measure_the_drift():
     m = KnotSecurity().metrics(_Ctx(load="hold"), _log(mode="hold", drift=1e-5))
     assert m["slip_onset"] is None
@@ -218,3 +224,6 @@ def test_pulse_metrics_count_cycles_to_spill():
     assert m["slip_onset"]["criterion"] == "spill" and KnotSecurity().slipped(None, m)
     held = KnotSecurity().metrics(_Ctx(load="pulses", pulse_period=1.0, n_pulses=5, spill_distance=0.1), log)
     assert held["cycles_to_spill"] is None and held["decidable"] and not KnotSecurity().slipped(None, held)
+    drawn_in = KnotSecurity().metrics(_Ctx(load="pulses", pulse_period=1.0, n_pulses=5, spill_distance=0.01),
+                                      log.assign(u_pull=-u))  # the knot settling: the end drawn in
+    assert drawn_in["cycles_to_spill"] is None and not KnotSecurity().slipped(None, drawn_in)

@@ -50,6 +50,7 @@ def test_hold_is_decided_by_motion():
     assert holds(base, 1e-3)  # the take-up in the first half of the hold does not count
     assert not holds({**base, "metrics": {**base["metrics"], "drift_pull_late": 2e-3}}, 1e-3)  # crept too far
     assert not holds({**base, "metrics": {**base["metrics"], "drift_pull_late": None}}, 1e-3)  # not measured
+    assert holds({**base, "metrics": {**base["metrics"], "drift_pull_late": -5e-3}}, 1e-3)  # drawn in: settling
     assert not holds({**base, "outcome": "untied"}, 1e-3)
     with pytest.raises(ConfigError, match="load_time"):
         holds({**base, "metrics": {**base["metrics"], "decidable": False}}, 1e-3)

@@ -25,8 +25,8 @@ Stages (times from the end of any ``settle_time``):
      **sliding resistance**;
    * ``"pulses"``: ``n_pulses`` triangular pulses from ``hold_tension`` up to ``pulse_load`` (N) and
      back, ``pulse_period`` s each (a jerk test): the knot has **spilled** after the first pulse at
-     whose end the loaded end is more than ``spill_distance`` (m) from where the load began
-     (``cycles_to_spill``).
+     whose end the loaded end is more than ``spill_distance`` (m) further out than where the load
+     began (``cycles_to_spill``).
 
 **One-rope knots** (the single-rope reef and granny of the seed study, ``single_rod_reef`` and
 ``single_rod_granny``): the node of the knot's ``held`` hint (the bottom of the first overhand's
@@ -58,8 +58,9 @@ not set); then by mode ``slip_load`` (N), ``slip_load_norm`` and ``slip_onset`` 
 ``slip_during_transient``: the end was already running away when the detection began, after the
 ``transient``, so the slip load is at most the value given),
 ``drift_pull``, ``drift_tails`` (m over the hold after its rise) and their rates (m/s), and
-``drift_pull_late`` with its rate over the second half of the hold (hold: a drift beyond
-``hold_drift`` there counts as a slip, criterion ``"drift"``; the tail lengths move in
+``drift_pull_late`` with its rate over the second half of the hold (hold: an outward drift beyond
+``hold_drift`` there, the loaded end pulled out of the knot, counts as a slip, criterion
+``"drift"``; an end drawn in against the load is the knot still settling, reported, not a slip; the tail lengths move in
 steps of one edge length, as a node comes within or leaves the contact distance of the other rope),
 ``sliding_resistance`` (N) and its norm (slide). Outcomes as for ``two-rope-bend``: ``untied``
 (the ropes apart and unlinked), ``slipped`` (the loaded end ran away), ``undecided`` (a load stage
@@ -142,7 +143,7 @@ class KnotSecurity(TwoRopeBend):
         "runaway_speed": 0.05,  # m/s: the loaded end faster than this for 0.5 s = running away
         "slip_speed": 0.002,   # m/s: faster than this for 0.5 s = slipping slowly (ramp); the elastic
                                # stretch of the standing part under the ramp moves it at ~0.4 mm/s
-        "hold_drift": 0.001,   # m: a hold whose loaded end moved further over its second half slipped
+        "hold_drift": 0.001,   # m: a hold whose loaded end moved further out over its second half slipped
         "transient": 1.0,      # s at the start of the load stage left out of the slip detection
         "output_interval": 0.1,
     }
@@ -404,7 +405,9 @@ class KnotSecurity(TwoRopeBend):
                 if np.count_nonzero(late) >= 2:
                     out["drift_pull_late"] = float(up[late][-1] - up[late][0])
                     out["drift_pull_late_rate"] = float(np.polyfit(tw[late], up[late], 1)[0])
-                    if k is None and abs(out["drift_pull_late"]) > float(p["hold_drift"]):
+                    # a slip pays rope out under the load; a loaded end drawn in (the knot still
+                    # settling after the set, against the load) is not one
+                    if k is None and out["drift_pull_late"] > float(p["hold_drift"]):
                         i = int(np.flatnonzero(win)[np.argmax(late)])
                         out["slip_onset"] = {"time": float(t[i]), "force": float(f[i]), "criterion": "drift"}
             out["hold_load"] = float(p["hold_load"])
@@ -415,13 +418,13 @@ class KnotSecurity(TwoRopeBend):
 def _pulse_metrics(p, log, t) -> dict:
     """Cycles to spill of the ``"pulses"`` mode: the loaded end's displacement at the end of each pulse
     (back at the base load) from where the load stage began, ``pulse_drift`` (m); the knot has spilled
-    in the first pulse after which it exceeds ``spill_distance`` (``cycles_to_spill``; ``None``: it
-    never did)."""
+    in the first pulse after which it is out by more than ``spill_distance`` (``cycles_to_spill``;
+    ``None``: it never was; an end drawn in is the knot settling, not spilling)."""
     period, n, spill = float(p["pulse_period"]), int(p["n_pulses"]), float(p["spill_distance"])
     u = np.asarray(log["u_pull"], float)
     ends = [i * period for i in range(1, n + 1) if i * period <= t[-1] + 1e-9]
     moved = [float(np.interp(te, t, u) - u[0]) for te in ends]
-    spilled = next((i + 1 for i, m in enumerate(moved) if abs(m) > spill), None)
+    spilled = next((i + 1 for i, m in enumerate(moved) if m > spill), None)  # pulled out, not drawn in
     return {"pulse_drift": moved, "pulses_done": len(ends), "cycles_to_spill": spilled,
             "decidable": len(ends) == n or spilled is not None,
             "slip_onset": (None if spilled is None else

@@ -4,8 +4,9 @@
 relaxed, then the standing end loaded by ``load`` N and held) at friction coefficients chosen by
 bisection, and decides each run from the motion of the rope, never from the force alone: a run
 *holds* when the loaded end never ran away, the ropes did not come apart and the loaded end drifted
-less than ``drift_limit`` (m) over the second half of the hold (the protocol's own ``hold_drift``
-rule: the first half is the knot taking up the load). The answer is an interval ``[mu_slip, mu_hold]``: the
+out by less than ``drift_limit`` (m) over the second half of the hold (the protocol's own
+``hold_drift`` rule: the first half is the knot taking up the load; an end drawn in against the load
+is a knot still settling, not slipping). The answer is an interval ``[mu_slip, mu_hold]``: the
 largest μ tried that did not hold and the smallest that did, narrower than ``tol``. Monotonicity in
 μ is assumed (more friction holds at least as well), and checked at the ends of the bracket.
 """
@@ -53,9 +54,10 @@ class CriticalFriction:
 
 def holds(result: Any, drift_limit: float) -> bool:
     """Whether a ``knot-security`` hold run (its summary) held: no run-away, not untied, and the
-    loaded end drifted less than ``drift_limit`` (m) over the second half of the hold
+    loaded end drifted out by less than ``drift_limit`` (m) over the second half of the hold
     (``drift_pull_late``; the first half is the knot taking up the load: a reef bend set at 10 mN
-    moves about 3 mm there under 2 mN even at μ = 0.6, then micrometres)."""
+    moves about 3 mm there under 2 mN even at μ = 0.6, then micrometres; an end drawn in, against
+    the load, is the knot still settling and holds)."""
     m = result["metrics"]
     if result["outcome"] in ("untied", "slipped") or m.get("slip_onset") is not None:
         return False
@@ -63,7 +65,7 @@ def holds(result: Any, drift_limit: float) -> bool:
         raise ConfigError("load_time", "the hold was too short to tell whether the knot holds; give a longer "
                                        "load_time")
     drift = m.get("drift_pull_late")
-    return drift is not None and abs(float(drift)) < drift_limit
+    return drift is not None and float(drift) < drift_limit  # out of the knot; drawn in is settling
 
 
 def critical_friction(knot: str, load: float, *, mu_low: float = 0.05, mu_high: float = 0.8, tol: float = 0.02,
