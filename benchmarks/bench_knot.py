@@ -1,7 +1,7 @@
 """Benchmark: the IMC paper's knot-tightening job, end to end, through the public API.
 
 Run: ``python benchmarks/bench_knot.py [--geometry PATH] [--n-nodes N] [--wait 2] [--duration 62]
-[--dt 2.5e-3] [--mu 0.3] [--friction-model centreline|surface]``. Default job: imc-der's own ``n1`` overhand (301 nodes, read from
+[--dt 2.5e-3] [--mu 0.3] [--friction-model centreline|surface] [--no-spin-relaxation]``. Default job: imc-der's own ``n1`` overhand (301 nodes, read from
 ``../shared/data/foreign/imc-der/n1`` beside the checkout, else the library's ``overhand_n1``),
 L = 1 m, h = 1.6 mm, E = 0.18 MPa, rho = 1180 kg/m^3, eta = 0.01 Pa s, both end pairs clamped, held
 for ``--wait`` s, then pulled apart along the end-to-end axis at 6 mm/s each, 62 s simulated in all at
@@ -90,7 +90,8 @@ def build(x: np.ndarray, args):
     elif args.friction_model != "centreline":
         raise SystemExit("this knotsim has no surface friction (contact.friction_model)")
     contact = ks.Contact(model, options)
-    return ks.Simulation(model, bcs, ks.SolverOptions(dt=args.dt), interactions=[contact])
+    return ks.Simulation(model, bcs, ks.SolverOptions(dt=args.dt, spin_relaxation=args.spin_relaxation),
+                         interactions=[contact])
 
 
 def build_old(x: np.ndarray, args):
@@ -123,6 +124,8 @@ def main() -> None:
     ap.add_argument("--mu", type=float, default=0.3)
     ap.add_argument("--friction-model", default="centreline", choices=["centreline", "surface"],
                     help="friction law (default: the IMC paper's, centreline)")
+    ap.add_argument("--no-spin-relaxation", dest="spin_relaxation", action="store_false",
+                    help="solver.spin_relaxation = false (it acts with surface friction only)")
     ap.add_argument("--force-curve", default=None, metavar="CSV",
                     help="write the pull force per step (time s, force N) to this file")
     ap.add_argument("--compare", default=None, metavar="CSV",
