@@ -90,8 +90,11 @@ def build(x: np.ndarray, args):
     elif args.friction_model != "centreline":
         raise SystemExit("this knotsim has no surface friction (contact.friction_model)")
     contact = ks.Contact(model, options)
-    return ks.Simulation(model, bcs, ks.SolverOptions(dt=args.dt, spin_relaxation=args.spin_relaxation),
-                         interactions=[contact])
+    solver = ks.SolverOptions(dt=args.dt, spin_relaxation=args.spin_relaxation)
+    for name in ("spin_relaxation_above", "spin_relaxation_after"):
+        if getattr(args, name) is not None:
+            setattr(solver, name, getattr(args, name))
+    return ks.Simulation(model, bcs, solver, interactions=[contact])
 
 
 def build_old(x: np.ndarray, args):
@@ -126,6 +129,11 @@ def main() -> None:
                     help="friction law (default: the IMC paper's, centreline)")
     ap.add_argument("--no-spin-relaxation", dest="spin_relaxation", action="store_false",
                     help="solver.spin_relaxation = false (it acts with surface friction only)")
+    ap.add_argument("--spin-relaxation-above", type=float, default=None, metavar="X",
+                    help="solver.spin_relaxation_above (moment tolerances; default: the library's; 1: relax "
+                         "every iterate, as before the option existed)")
+    ap.add_argument("--spin-relaxation-after", type=int, default=None, metavar="N",
+                    help="solver.spin_relaxation_after (default: the library's)")
     ap.add_argument("--force-curve", default=None, metavar="CSV",
                     help="write the pull force per step (time s, force N) to this file")
     ap.add_argument("--compare", default=None, metavar="CSV",

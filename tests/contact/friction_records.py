@@ -8,7 +8,7 @@ import numpy as np
 
 def random_friction_records(rng, k: int, slip: float, lever: float, mufn_min: float, *, stick: bool = False,
                             dt: float = 1.0) -> np.ndarray:
-    """``(k, RECORD_SIZE)`` records as :class:`~knotsim.contact.surface_friction.SpinFriction` takes them:
+    """``(k, RECORD_SIZE)`` records as :class:`~knotsim.contact.spin_minimiser.SpinFriction` takes them:
     per pair the slip velocity ``u0`` (m/s, scale ``slip``), the velocities per unit rate of the two
     edge angles ``c_a``, ``c_b`` (m, scale ``lever``), all tangent to a random contact normal, the
     normal force ``F_n`` drawn from ``[mufn_min, 1)`` N and the coefficient 1 (so ``μ F_n = F_n``).

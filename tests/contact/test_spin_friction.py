@@ -8,7 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from knotsim.contact.surface_friction import RECORD_SIZE, SpinFriction, spin_friction_terms
+from knotsim.contact.spin_minimiser import SpinFriction
+from knotsim.contact.surface_friction import RECORD_SIZE, spin_friction_terms
 
 from .friction_records import random_friction_records
 from .test_surface_friction import DT, NU, evaluate, random_pair, stable
@@ -71,7 +72,7 @@ def random_records(rng, k, slip_scale, stick=False):
 def run(dtheta, loc, rec, dt=DT, nu=NU):
     g = np.zeros(dtheta.shape[0])
     h = np.zeros((rec.shape[0], 2, 2))
-    return spin_friction_terms(dtheta, loc, rec, dt, nu, g, h), g, h
+    return spin_friction_terms(dtheta, loc, rec, dt, np.full(rec.shape[0], nu), g, h), g, h
 
 
 @pytest.mark.parametrize("stick", [False, True])

@@ -64,7 +64,8 @@ from knotsim.contact.broadphase import find_candidate_pairs, node_drift
 from knotsim.contact.options import ContactOptions, StiffnessMode
 from knotsim.contact.stick import SpringMemory, StickHistory
 from knotsim.contact.stiffness import AdaptiveStiffness, StiffnessMemory, default_floor
-from knotsim.contact.surface_friction import RECORD_SIZE, SpinFriction
+from knotsim.contact.spin_minimiser import SpinFriction
+from knotsim.contact.surface_friction import RECORD_SIZE
 from knotsim.contact.swept import pass_through, swept_box_pairs
 from knotsim.errors import ConfigError
 from knotsim.geometry import exclusion

@@ -31,6 +31,7 @@ Where ``|S| <= TINY_FORCE`` the pair carries no friction.
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from knotsim import _vec3 as v3
@@ -279,7 +280,7 @@ def spin_friction_terms(dtheta, loc, record, dt, nu, grad_out, hess_out):
     loc : (k, 2) int64, local number of each pair's angles ``θ_a, θ_b`` (−1: held, not turned).
     record : (k, RECORD_SIZE) float64, each pair's record at the iterate (``spin_out`` of
         :func:`surface_friction_pair`: ``w`` (m/s), ``c_a``, ``c_b`` (m), ``F_n`` (N), coefficient, ``κ``).
-    dt : time step (s); nu : slip tolerance ν (m/s).
+    dt : time step (s); nu : (k,) float64, each pair's slip tolerance ν (m/s).
     grad_out : (m,) float64 output, ``Σ ∂D/∂Δθ`` (N m).
     hess_out : (k, 2, 2) float64 output, each pair's ``∂²D/∂(Δθ_a, Δθ_b)²`` (N m/rad; zero rows and
         columns for held angles).
@@ -319,8 +320,8 @@ def spin_friction_terms(dtheta, loc, record, dt, nu, grad_out, hess_out):
             c = fn
         else:
             s = v3.norm(u)
-            _, phi, psi = slip_functions(s, nu)
-            total += mufn * dt * slip_potential(s, nu)
+            _, phi, psi = slip_functions(s, nu[p])
+            total += mufn * dt * slip_potential(s, nu[p])
             gs = mufn
             c = mufn / dt
         uca = v3.dot(u, ca)
@@ -336,27 +337,3 @@ def spin_friction_terms(dtheta, loc, record, dt, nu, grad_out, hess_out):
             hess_out[p, 0, 1] = hab
             hess_out[p, 1, 0] = hab
     return total
-
-
-class SpinFriction:
-    """The surface friction of a set of pairs as a function of the edge angles alone (positions held at
-    the iterate where it was taken): a thin object over :func:`spin_friction_terms`, handed by an
-    interaction to the stepper's spin relaxation (:mod:`knotsim.solver.spin_relaxation`).
-
-    Attributes
-    ----------
-    theta_dofs : (k, 2) int64, the unknowns ``θ_a, θ_b`` of each pair.
-    record : (k, RECORD_SIZE) float64, each pair's ``spin_out`` record (see :func:`surface_friction_pair`).
-    nu : slip tolerance ν (m/s).
-    """
-
-    def __init__(self, theta_dofs, record, nu: float):
-        self.theta_dofs = theta_dofs
-        self.record = record
-        self.nu = float(nu)
-
-    def terms(self, dtheta, loc, dt: float, grad_out, hess_out) -> float:
-        """``Σ D`` (J) at the turn ``dtheta`` (rad, local numbering ``loc`` (k, 2) of the pairs' angles,
-        −1 for held ones); the gradient (N m) into ``grad_out`` and the per-pair Hessians (N m/rad)
-        into ``hess_out`` (k, 2, 2)."""
-        return spin_friction_terms(dtheta, loc, self.record, dt, self.nu, grad_out, hess_out)

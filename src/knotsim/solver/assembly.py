@@ -20,6 +20,18 @@ from numba import njit
 
 
 @njit(cache=True)
+def banded_dense_block(ab, row0, kl, ku, idx, out):
+    """``out (m, m) = A[idx][:, idx]`` of the banded ``A`` (``A[i, j] = ab[row0 + i - j, j]``,
+    ``kl`` sub- and ``ku`` super-diagonals) for the unknowns ``idx (m,)`` (distinct)."""
+    m = idx.shape[0]
+    for c in range(m):
+        j = idx[c]
+        for r in range(m):
+            d = idx[r] - j
+            out[r, c] = ab[row0 + d, j] if -ku <= d <= kl else 0.0
+
+
+@njit(cache=True)
 def banded_add_blocks(ab, row0, dofs, blocks):
     """``A[dofs[b], dofs[b]] += blocks[b]`` in banded storage with ``row0 = kl + ku``."""
     nb, k = dofs.shape
@@ -97,6 +109,22 @@ def csc_add_blocks(data, slots, blocks):
         for i in range(k):
             for j in range(k):
                 data[slots[b, i, j]] += blocks[b, i, j]
+
+
+@njit(cache=True)
+def csc_dense_block(data, indptr, indices, idx, loc, out):
+    """``out (m, m) = A[idx][:, idx]`` of the CSC matrix ``A`` for the unknowns ``idx (m,)``, with
+    ``loc (n,)`` the local number of each unknown in ``idx`` (−1 for the others)."""
+    m = idx.shape[0]
+    for c in range(m):
+        for r in range(m):
+            out[r, c] = 0.0
+    for c in range(m):
+        j = idx[c]
+        for s in range(indptr[j], indptr[j + 1]):
+            r = loc[indices[s]]
+            if r >= 0:
+                out[r, c] += data[s]
 
 
 @njit(cache=True)

@@ -34,9 +34,10 @@ class NonlinearSystem(Protocol):
     relax_enabled: bool
     """Optional: whether :meth:`relax` is used."""
 
-    def relax(self, q: np.ndarray, r: np.ndarray, jacobian_current: bool):
+    def relax(self, q: np.ndarray, r: np.ndarray, jacobian_current: bool, above: float):
         """Optional nonlinear elimination before a Newton step: ``(q', r')`` with the Jacobian
-        assembled at ``q'``, or ``None`` (e.g. the stepper's spin relaxation)."""
+        assembled at ``q'``, or ``None`` (nothing to relax, or the relaxed unknowns' residual at
+        most ``above`` tolerances; e.g. the stepper's spin relaxation)."""
 
 
 def _acceptable(a: float, rn_try: float, rn: float, merit: float, merit0: float, slope: float) -> bool:
@@ -69,7 +70,7 @@ class NewtonResult:
 def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 25,
                  line_search: bool = True, max_cuts: int = 8, reuse_jacobian: bool = False,
                  reuse_ratio: float = 0.25, stall_iterations: int = 10, safeguard_cuts: int = 30,
-                 jacobian_at_start: bool = True) -> NewtonResult:
+                 jacobian_at_start: bool = True, relax_above: float = 1.0, relax_after: int = 0) -> NewtonResult:
     """Solve ``residual(q) = 0`` from ``q0`` (prescribed unknowns already set in ``q0``).
 
     Each iteration solves ``J dq = -r`` and accepts ``q + a dq`` with the largest
@@ -99,10 +100,17 @@ def newton_solve(system: NonlinearSystem, q0: np.ndarray, max_iterations: int = 
     ``safeguard_cuts`` halvings; an iteration in which that norm does not fall along ``dq`` (an
     inexact Jacobian) takes the ordinary line search instead.
     ``NewtonResult.line_search_cuts`` counts the cuts of both line searches.
+
+    A system with a relaxation (``system.relax_enabled``, e.g. the stepper's spin relaxation) has
+    it applied before each Newton step, and to every trial point of the safeguarded line search: in
+    the first ``relax_after`` iterations only to an iterate whose relaxed unknowns' residual exceeds
+    ``relax_above`` tolerances, from then on to any whose residual exceeds the tolerance
+    (``relax_above = 1`` or ``relax_after = 0``: always). A solve whose relaxed unknowns are nearly
+    in balance then takes plain Newton iterations and pays nothing for the relaxation.
     """
     try:
         return _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, reuse_ratio,
-                       stall_iterations, safeguard_cuts, jacobian_at_start)
+                       stall_iterations, safeguard_cuts, jacobian_at_start, relax_above, relax_after)
     except ArithmeticError as exc:  # ZeroDivisionError in a kernel, FloatingPointError, OverflowError
         return NewtonResult(q0, False, 0, np.inf, np.inf, 0,
                             f"numerical failure in a Newton trial ({type(exc).__name__}: {exc})")
@@ -126,9 +134,10 @@ class _Trial:
 
 
 def _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, reuse_ratio, stall_iterations,
-            safeguard_cuts, jacobian_at_start=True) -> NewtonResult:
+            safeguard_cuts, jacobian_at_start=True, relax_above=1.0, relax_after=0) -> NewtonResult:
     norm2 = getattr(system, "residual_norm2", None) or (lambda r: float(np.linalg.norm(r)))
     relax = system.relax if getattr(system, "relax_enabled", False) else None
+    above = relax_above  # tolerances of the relaxed unknowns' residual above which an iterate is relaxed
     trial = _Trial(system)
     q = q0.copy()
     fresh = jacobian_at_start or not reuse_jacobian  # the assembled Jacobian is that of q
@@ -140,7 +149,7 @@ def _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, r
         """Residual at ``q_try`` (Jacobian assembled), after the system's relaxation from there."""
         r_t, rn_t = trial(q_try, True)
         if relax is not None and math.isfinite(rn_t) and rn_t > 1.0:
-            out = relax(q_try, r_t, True)
+            out = relax(q_try, r_t, True, above)
             if out is not None:
                 q_try, r_t = out
                 rn_t = system.residual_norm(r_t)
@@ -169,8 +178,10 @@ def _newton(system, q0, max_iterations, line_search, max_cuts, reuse_jacobian, r
                 if reuse_jacobian:
                     r, rn = trial(q, True)  # the Jacobian at the current point
                     fresh = True
+        if it >= relax_after:
+            above = 1.0
         if relax is not None and rn > 1.0 and not relaxed_at_q:
-            relaxed = relax(q, r, fresh)
+            relaxed = relax(q, r, fresh, above)
             if relaxed is not None:
                 q, r = relaxed
                 rn = system.residual_norm(r)

@@ -62,7 +62,13 @@ class SolverOptions:
       guard off).
     - ``spin_relaxation``: before each Newton step, solve the edge angles with the nodes held when
       surface-friction pairs are in range (:mod:`knotsim.solver.spin_relaxation`; default on). It
-      changes the Newton path, not the equations; with centre-line friction it does nothing.
+      changes the Newton path, not the equations; with centre-line friction it does nothing;
+    - ``spin_relaxation_above``, ``spin_relaxation_after``: in the first ``spin_relaxation_after``
+      Newton iterations of a step (default 3) an iterate is relaxed only when the residual of the
+      relaxed edge angles exceeds ``spin_relaxation_above`` moment tolerances (default 1000); from
+      then on whenever it exceeds the tolerance. A step whose angles are nearly in balance then
+      takes plain Newton iterations and does not pay for the relaxation. ``spin_relaxation_above
+      = 1`` relaxes every iterate, as the studies committed before these options existed ran.
     """
 
     dt: float = 1e-3
@@ -82,6 +88,8 @@ class SolverOptions:
     max_axial_strain: float = 2.0
     max_energy_gain: float = 0.5
     spin_relaxation: bool = True
+    spin_relaxation_above: float = 1000.0
+    spin_relaxation_after: int = 3
 
     def validate(self) -> None:
         number(self.dt, "solver.dt", above=0.0, must="be a positive time step in s")
@@ -93,6 +101,9 @@ class SolverOptions:
             if v is not None:
                 number(v, f"solver.{name}", above=0.0, infinite=True, must="be positive")
         flag(self.spin_relaxation, "solver.spin_relaxation")
+        number(self.spin_relaxation_above, "solver.spin_relaxation_above", at_least=1.0, infinite=True,
+               must="be at least 1 (moment tolerances; 1: relax every iterate)")
+        number(self.spin_relaxation_after, "solver.spin_relaxation_after", integer=True, at_least=0)
         for name in ("max_axial_strain", "max_energy_gain"):
             number(getattr(self, name), f"solver.{name}", above=0.0, infinite=True,
                    must="be a positive number (inf switches the guard off)")

@@ -218,21 +218,25 @@ class _StepSystem:
         ft = float(np.dot(r[theta], r[theta])) / self.s.moment_tol**2
         return math.sqrt(fp + ft) / self.roundoff_factor
 
-    def relax(self, q: np.ndarray, r: np.ndarray, jacobian_current: bool):
+    def relax(self, q: np.ndarray, r: np.ndarray, jacobian_current: bool, above: float = 1.0):
         """Spin relaxation (:mod:`knotsim.solver.spin_relaxation`) from the iterate ``q`` with
         residual ``r`` (the interactions' last evaluation at ``q``; ``jacobian_current``: the
         assembled Jacobian is that of ``q``): ``(q', r')``, the iterate with its edge angles solved for
-        and its residual (Jacobian assembled at ``q'``), or ``None`` when there is nothing to relax."""
+        and its residual (Jacobian assembled at ``q'``), or ``None`` when there is nothing to relax
+        (no surface-friction pair, or the residual of their edge angles at most ``above`` moment
+        tolerances)."""
         s = self.s
         if not self.relax_enabled:
             return None
+        tol = s.moment_tol * self.roundoff_factor
+        if not split_max_abs(r, s.model.theta_mask)[1] > tol * max(above, 1.0):
+            return None  # no edge angle out of balance by more than that (the check below, cheaply)
         spins = [f for f in (inter.spin_friction() for inter in s.interactions) if f is not None]
         if not spins:
             return None
-        tol = s.moment_tol * self.roundoff_factor
         idx = np.unique(np.concatenate([f.theta_dofs.ravel() for f in spins]))
         idx = idx[self.free[idx]]
-        if not np.max(np.abs(r[idx]), initial=0.0) > tol:
+        if not np.max(np.abs(r[idx]), initial=0.0) > tol * max(above, 1.0):
             return None
         if not jacobian_current:
             r = self.residual(q, True)
@@ -414,30 +418,14 @@ class Stepper:
     def jacobian_block(self, idx: np.ndarray) -> np.ndarray:
         """The last assembled Jacobian's block of the unknowns ``idx`` (sorted, ``(m,)``) as a dense
         ``(m, m)`` array (the units of those unknowns' residuals per unit unknown)."""
-        n = self.model.n_dofs
-        loc = np.full(n, -1, dtype=np.int64)
-        loc[idx] = np.arange(idx.size)
+        out = np.empty((idx.size, idx.size))
         if self._system[0] == "sparse":
-            data, indptr, indices = self._system[1], self._indptr, self._indices
-            starts, counts = indptr[idx], indptr[idx + 1] - indptr[idx]
-            col = np.repeat(np.arange(idx.size), counts)  # local column of every stored entry
-            slot = np.repeat(starts - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
-            row = loc[indices[slot]]
-            keep = row >= 0
-            out = np.zeros((idx.size, idx.size))
-            np.add.at(out, (row[keep], col[keep]), data[slot[keep]])
+            loc = np.full(self.model.n_dofs, -1, dtype=np.int64)
+            loc[idx] = np.arange(idx.size)
+            asm.csc_dense_block(self._system[1], self._indptr, self._indices, idx, loc, out)
             return out
         _, ab, kl, ku, _ = self._system
-        rows, cols, vals = [], [], []
-        for d in range(-ku, kl + 1):  # entry (i, j) = (j + d, j) sits at ab[kl + ku + d, j]
-            i = idx + d
-            ok = (i >= 0) & (i < n)
-            ok[ok] = loc[i[ok]] >= 0
-            rows.append(loc[i[ok]])
-            cols.append(loc[idx[ok]])
-            vals.append(ab[kl + ku + d, idx[ok]])
-        out = np.zeros((idx.size, idx.size))
-        np.add.at(out, (np.concatenate(rows), np.concatenate(cols)), np.concatenate(vals))
+        asm.banded_dense_block(ab, kl + ku, kl, ku, idx, out)
         return out
 
     def _jacobian_carries_over(self, jac: JacobianMemory | None, dt: float, fixed: np.ndarray) -> bool:
@@ -583,7 +571,9 @@ class Stepper:
         carry = reuse and self.options.jacobian_across_steps and self._jacobian_carries_over(jac, dt, fixed)
         try:
             res = newton_solve(system, q0, self.options.max_iterations, self.options.line_search,
-                               reuse_jacobian=reuse, jacobian_at_start=not carry)
+                               reuse_jacobian=reuse, jacobian_at_start=not carry,
+                               relax_above=self.options.spin_relaxation_above,
+                               relax_after=self.options.spin_relaxation_after)
         except (LinearSolveError, ArithmeticError) as exc:  # ArithmeticError: ZeroDivision, overflow, FPE
             raise StepFailure(f"{type(exc).__name__}: {exc}" if isinstance(exc, ArithmeticError) else str(exc)) from exc
         if not res.converged:
