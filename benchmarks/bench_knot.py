@@ -160,7 +160,8 @@ def main() -> None:
     narrow = contact.timers["narrow_phase"]
     split = {"elastic": tm["forces"] - narrow, "contact_and_friction": narrow, "assembly": tm["assembly"],
              "factorization": tm.get("factorization", 0.0),
-             "solve": tm["linear_solve"] - tm.get("factorization", 0.0), "broad_phase": broad}
+             "solve": tm["linear_solve"] - tm.get("factorization", 0.0), "broad_phase": broad,
+             "spin_relaxation": tm.get("spin_relaxation", 0.0)}
     split["python_other"] = wall - sum(split.values())
     axis = (x[-1] - x[0]) / np.linalg.norm(x[-1] - x[0])
     force = np.column_stack([np.asarray(log[k], float) for k in ("right_fx", "right_fy", "right_fz")]) @ axis
@@ -174,6 +175,7 @@ def main() -> None:
            "contacts_per_step": round(float(np.mean(log["n_contacts"])), 2),
            "peak_rss_mib": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),
            "split_s": {k: round(v, 3) for k, v in split.items()}, "final_pull_force_N": f_end,
+           "spin_relaxations": int(getattr(sim.stepper, "spin_relaxations", 0)),
            "failed_attempts": int(sim.n_failures), "dataframe": bool(args.dataframe),
            "pandas_loaded": "pandas" in sys.modules}
     curve = np.column_stack([np.asarray(log["time"], float), force])
