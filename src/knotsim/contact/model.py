@@ -62,9 +62,9 @@ from knotsim.contact.assembly import (
 )
 from knotsim.contact.broadphase import find_candidate_pairs, node_drift
 from knotsim.contact.options import ContactOptions, StiffnessMode
+from knotsim.contact.spin_minimiser import SpinFriction
 from knotsim.contact.stick import SpringMemory, StickHistory
 from knotsim.contact.stiffness import AdaptiveStiffness, StiffnessMemory, default_floor
-from knotsim.contact.spin_minimiser import SpinFriction
 from knotsim.contact.surface_friction import RECORD_SIZE
 from knotsim.contact.swept import pass_through, swept_box_pairs
 from knotsim.errors import ConfigError

@@ -31,7 +31,6 @@ Where ``|S| <= TINY_FORCE`` the pair carries no friction.
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
 
 from knotsim import _vec3 as v3
