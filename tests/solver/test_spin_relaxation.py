@@ -6,6 +6,7 @@ every iterate, or only those far out of balance), nothing done with the centre-l
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -156,10 +157,10 @@ def test_relaxation_leaves_a_solved_problem_alone():
 
 
 def log_roll_run(relax: bool, friction_model: str = "surface", twist: bool = True, travel_time: float = 0.3,
-                 above: float = 1.0):
+                 above: float = 1.0, after: int = 3):
     """The log roll of docs/validation.md §2.1 (rod B pressed onto A, its ends then moved 10 mm
     across A in ``travel_time`` s; ``twist``: B's ends also hold their edge angles), cut short;
-    ``above``: ``solver.spin_relaxation_above`` (1: every iterate relaxed)."""
+    ``above``, ``after``: ``solver.spin_relaxation_above`` (1: every iterate relaxed) and ``_after``."""
     from knotsim.contact.model import Contact
     from knotsim.contact.options import ContactOptions
     from knotsim.simulation import Simulation
@@ -176,7 +177,7 @@ def log_roll_run(relax: bool, friction_model: str = "surface", twist: bool = Tru
     bcs.move("B0", rod="B", nodes=[0, 1], path=path, twist=twist)
     bcs.move("B1", rod="B", nodes=[-2, -1], path=path, twist=twist)
     contact = Contact(m, ContactOptions(mu=0.3, friction_model=friction_model))
-    options = SolverOptions(dt=2e-3, spin_relaxation=relax, spin_relaxation_above=above)
+    options = SolverOptions(dt=2e-3, spin_relaxation=relax, spin_relaxation_above=above, spin_relaxation_after=after)
     sim = Simulation(m, bcs, options, interactions=[contact])
     log = sim.run(t_travel + travel_time, progress=False)
     return sim, log
@@ -187,6 +188,18 @@ def log_rolls():
     return {key: log_roll_run(*args) for key, args in {
         "on": (True,), "off": (False,), "centreline": (True, "centreline"),
         "default": (True, "surface", True, 0.3, SolverOptions().spin_relaxation_above)}.items()}
+
+
+def test_relaxation_runs_only_above_its_threshold_in_the_first_iterations():
+    """``spin_relaxation_above = inf`` with ``spin_relaxation_after`` beyond any step's iterations:
+    no relaxation; the same run relaxing every iterate (``above = 1``) relaxes; a threshold between
+    the two relaxes fewer iterates than every one."""
+    counts = {}
+    for above in (1.0, 1e3, math.inf):
+        sim, _ = log_roll_run(True, above=above, travel_time=0.1, after=50)
+        counts[above] = sim.stepper.spin_relaxations
+    assert counts[math.inf] == 0
+    assert counts[1.0] > counts[1e3] >= 0 and counts[1.0] > 0
 
 
 @pytest.mark.parametrize("variant", ["on", "default"])

@@ -94,8 +94,9 @@ def parse_solver(t) -> SolverOptions:
         elif int in args:
             kw[key] = as_integer(value, path)
         elif float in args:
-            # the validity guards switch off with inf (TOML: max_axial_strain = inf)
-            infinite_ok = key in ("max_axial_strain", "max_energy_gain") and value == float("inf")
+            # the validity guards switch off with inf (TOML: max_axial_strain = inf); spin_relaxation_above
+            # = inf relaxes only from iteration spin_relaxation_after on
+            infinite_ok = key in ("max_axial_strain", "max_energy_gain", "spin_relaxation_above") and value == float("inf")
             kw[key] = float(value) if infinite_ok else as_number(value, path)
         elif str in args:
             kw[key] = as_string(value, path)
