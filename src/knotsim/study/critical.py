@@ -30,7 +30,9 @@ class CriticalFriction:
     ``mu_slip`` and ``mu_hold`` bracket the critical μ (``mu_slip`` ``None`` when even the lowest μ
     held, ``mu_hold`` ``None`` when even the highest slipped); ``mu_c`` is their midpoint (``None``
     when the bracket is open) and ``width`` their distance; ``runs`` lists every run as
-    ``{"mu", "holds", "outcome", "drift_pull", "slip_load"}`` in the order they were made.
+    ``{"mu", "holds", "outcome", "drift_pull", "drift_pull_late", "drift_tails", "set_creep",
+    "in_knot_set", "slip_load"}`` (m, m, m, m/s, m, N) in the order they were made: the tails' drift
+    tells a knot letting rope through (its tails drawn in) from one still drawing up (tails still).
     """
 
     knot: str
@@ -112,6 +114,8 @@ def critical_friction(knot: str, load: float, *, mu_low: float = 0.05, mu_high: 
         ok = holds(res, drift_limit)
         m = res["metrics"]
         out.runs.append({"mu": mu, "holds": ok, "outcome": res["outcome"], "drift_pull": m.get("drift_pull"),
+                         "drift_pull_late": m.get("drift_pull_late"), "drift_tails": m.get("drift_tails"),
+                         "set_creep": m.get("set_creep"), "in_knot_set": m.get("in_knot_set"),
                          "slip_load": m.get("slip_load")})
         return ok
 
