@@ -55,6 +55,8 @@ def _potential(x, a, r_t, loc, record, nu, dt, d0, g0, grad_pairs, hess, grad_ou
 
 @njit(cache=True)
 def _max_abs(x):
+    """``max |x|``, NaN when an entry is NaN (unlike :func:`knotsim.solver._kernels.max_abs`, which
+    skips it): a NaN gradient then ends the iteration and shows in the residual returned."""
     out = 0.0
     for i in range(x.shape[0]):
         v = abs(x[i])
