@@ -23,14 +23,15 @@ The generalised forces are those of virtual power, ``Q = Bᵀ f`` with ``B`` the
 * ``Q_θa = −h_a (t_a × n)·f``, ``Q_θb = −h_b (t_b × n)·f`` (N m).
 
 ``Q · ż = f · u ≤ 0``: the law dissipates at every iterate. The Jacobian ``∂Q/∂z`` (p_prev, θ_prev
-and dt fixed) is exact: it is computed column by column by differentiating every intermediate
-quantity along the unit direction of that unknown (forward mode, written out), including the
-dependence through ``β`` (``∂β/∂p``), ``n`` and ``F_n`` (through ``∂F_c/∂p``) and the tangents.
+and dt fixed) is exact, including the dependence through ``β`` (``∂β/∂p``), ``n`` and ``F_n`` (through
+``∂F_c/∂p``) and the tangents; it is built column by column from the per-edge 3×3 matrices of
+:func:`edge_jacobian_terms` (docs/physics.md §3.3).
 Where ``|S| <= TINY_FORCE`` the pair carries no friction.
 """
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from knotsim import _vec3 as v3
@@ -103,6 +104,78 @@ def lever_force(c, t, f, n):
 def lever_force_dot(c, cd, t, td, f, fd, n, nd):
     """Directional derivative of :func:`lever_force` (that of :func:`lever_velocity`, roles exchanged)."""
     return lever_velocity_dot(c, cd, n, nd, f, fd, t, td)
+
+
+@njit(cache=True)
+def edge_jacobian_terms(c, h, l, t, ed, spin, n, f, idt, out):
+    """The 3×3 matrices of one edge of a pair from which :func:`surface_friction_pair` builds its
+    Jacobian (docs/physics.md §3.3), for an edge of tangent ``t``, length ``l`` (m), radius ``h`` (m),
+    ``c = h/l``, rate ``ed = ė`` (m/s) and spin ``θ̇ = spin`` (rad/s), at the normal ``n`` and the
+    friction ``f`` (N); ``idt = 1/dt`` (1/s).
+
+    With ``rot = lever_velocity(c, t, ed, n) − h θ̇ (t × n)`` the edge's share of the surface velocity
+    ``w``, ``g = lever_force(c, t, f, n)`` its lever-arm force and ``Q_θ = −h (t × n)·f``, fills
+    ``out`` (5, 3, 3) with
+
+    0. ``Wn = ∂rot/∂n`` (1/s);
+    1. ``K``: ``∂rot/∂x`` for the edge's second node (its first: ``−K``; 1/s), through the tangent
+       (``∂t/∂x = (I − t tᵀ)/l``), ``c`` (``∂c/∂x = −c tᵀ/l``) and ``ė`` (``1/dt``);
+    2. ``Mf = ∂g/∂f``; 3. ``Gn = ∂g/∂n`` (N); 4. ``H = ∂g/∂x`` for the second node at fixed ``f`` (N/m).
+
+    Returns ``(r, fxt)``: ``r = (I − t tᵀ)(n × f)/l`` (N/m; ``∂Q_θ/∂x`` at fixed ``f`` and ``n`` is
+    ``−h r`` for the second node) and ``fxt = f × t`` (N; ``∂Q_θ/∂n`` at fixed ``f`` is ``−h fxt``).
+    """
+    tn = v3.dot(t, n)
+    ne = v3.dot(n, ed)
+    tf = v3.dot(t, f)
+    il = 1.0 / l
+    hw = h * spin
+    # ∂rot/∂c (rot's lever velocity is c lvu), ∂rot/∂t t = c lvu + hw n × t, ∂g/∂c
+    lvu = (-(tn * ed[0] - ne * t[0]), -(tn * ed[1] - ne * t[1]), -(tn * ed[2] - ne * t[2]))
+    gu = (-(tn * f[0] - tf * n[0]), -(tn * f[1] - tf * n[1]), -(tn * f[2] - tf * n[2]))
+    kt = v3.axpy(2.0 * c, lvu, v3.scale(hw, v3.cross(n, t)))
+    pn = v3.axpy(-tn, t, n)  # (I − t tᵀ) n
+    pf = v3.axpy(-tf, t, f)
+    for i in range(3):
+        for j in range(3):
+            d = 1.0 if i == j else 0.0
+            out[0, i, j] = -c * (ed[i] * t[j] - t[i] * ed[j])
+            # ∂rot/∂t (I − t tᵀ)/l + ∂rot/∂ė /dt − (c/l) lvu tᵀ, with ∂rot/∂t (t tᵀ) = kt tᵀ − c lvu tᵀ
+            out[1, i, j] = il * (-c * (ed[i] * n[j] - ne * d) - kt[i] * t[j]) - idt * c * (tn * d - t[i] * n[j])
+            out[2, i, j] = -c * (tn * d - n[i] * t[j])
+            out[3, i, j] = -c * (f[i] * t[j] - tf * d)
+            out[4, i, j] = -c * il * (f[i] * pn[j] - n[i] * pf[j] + gu[i] * t[j])
+    # the spin's terms: −hw [t]× in Wn, (hw/l) [n]× in K
+    add_skew(out, 0, -hw, t)
+    add_skew(out, 1, hw * il, n)
+    nf = v3.cross(n, f)
+    r = v3.scale(il, v3.axpy(-v3.dot(t, nf), t, nf))
+    return r, v3.cross(f, t)
+
+
+@njit(inline="always", cache=True)
+def add_skew(m, k, s, a):
+    """``m[k] += s [a]×`` for the (·, 3, 3) array ``m`` (``[a]× x = a × x``)."""
+    m[k, 0, 1] -= s * a[2]
+    m[k, 0, 2] += s * a[1]
+    m[k, 1, 0] += s * a[2]
+    m[k, 1, 2] -= s * a[0]
+    m[k, 2, 0] -= s * a[1]
+    m[k, 2, 1] += s * a[0]
+
+
+@njit(inline="always", cache=True)
+def _mat_vec(m, k, x):
+    """``m[k] x`` for the (·, 3, 3) array ``m``."""
+    return (m[k, 0, 0] * x[0] + m[k, 0, 1] * x[1] + m[k, 0, 2] * x[2],
+            m[k, 1, 0] * x[0] + m[k, 1, 1] * x[1] + m[k, 1, 2] * x[2],
+            m[k, 2, 0] * x[0] + m[k, 2, 1] * x[1] + m[k, 2, 2] * x[2])
+
+
+@njit(inline="always", cache=True)
+def _column(m, k, j):
+    """Column ``j`` of ``m[k]``."""
+    return (m[k, 0, j], m[k, 1, j], m[k, 2, j])
 
 
 @njit(cache=True)
@@ -213,53 +286,84 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
     spin_out[11] = kappa
     if not want_jacobian:
         return s, rolling
+    # The Jacobian, column by column from per-edge 3×3 matrices (edge_jacobian_terms): a column m of a
+    # position moves the normal (dn = (I − n nᵀ) dS/|S|, dF_n = n·dS, dS from dfc), the contact
+    # ratios (∂β/∂p) and, for a node of edge a or b, that edge's tangent, length and rate.
     isn = 1.0 / sn
-    zero = (0.0, 0.0, 0.0)
-    for m in range(14):
-        # unit direction of unknown m: which node moves (node, comp) or which angle turns
-        node = m // 3 if m < 12 else -1
-        comp = m - 3 * node if m < 12 else -1
-        if m < 12:
-            dS = (dfc[0, m] + dfc[3, m], dfc[1, m] + dfc[4, m], dfc[2, m] + dfc[5, m])
-            bad = dbeta_a[m]
-            bbd = dbeta_b[m]
-        else:
-            dS = zero
-            bad = 0.0
-            bbd = 0.0
-        dn = v3.scale(isn, v3.axpy(-v3.dot(n, dS), n, dS))
+    ma = np.empty((5, 3, 3))
+    mb = np.empty((5, 3, 3))
+    ra, fta = edge_jacobian_terms(ca, ha, la, ta, eda, wa, n, f, idt, ma)
+    rb, ftb = edge_jacobian_terms(cb, hb, lb, tb, edb, wb, n, f, idt, mb)
+    for i in range(3):
+        for j in range(3):
+            ma[0, i, j] += mb[0, i, j]  # W_n of the pair
+    for m in range(12):
+        node = m // 3
+        comp = m - 3 * node
+        dS = (dfc[0, m] + dfc[3, m], dfc[1, m] + dfc[4, m], dfc[2, m] + dfc[5, m])
         dfn = v3.dot(n, dS)
-        unit = (1.0 if comp == 0 else 0.0, 1.0 if comp == 1 else 0.0, 1.0 if comp == 2 else 0.0)
-        sa = 1.0 if node == 1 else (-1.0 if node == 0 else 0.0)
-        sb = 1.0 if node == 3 else (-1.0 if node == 2 else 0.0)
-        dea, dta, dca = edge_dot(sa, unit, ta, la, ca)
-        deb, dtb, dcb = edge_dot(sb, unit, tb, lb, cb)
-        dwa = idt if m == 12 else 0.0
-        dwb = idt if m == 13 else 0.0
-        dv0 = v3.scale(idt if node == 0 else 0.0, unit)
-        dv1 = v3.scale(idt if node == 1 else 0.0, unit)
-        dv2 = v3.scale(idt if node == 2 else 0.0, unit)
-        dv3 = v3.scale(idt if node == 3 else 0.0, unit)
-        dtan = v3.add(v3.cross(dta, n), v3.cross(ta, dn))
-        dtbn = v3.add(v3.cross(dtb, n), v3.cross(tb, dn))
-        drot_a = v3.add(lever_velocity_dot(ca, dca, ta, dta, eda, v3.scale(idt, dea), n, dn),
-                        v3.scale(-ha, v3.add(v3.scale(dwa, tan), v3.scale(wa, dtan))))
-        drot_b = v3.add(lever_velocity_dot(cb, dcb, tb, dtb, edb, v3.scale(idt, deb), n, dn),
-                        v3.scale(-hb, v3.add(v3.scale(dwb, tbn), v3.scale(wb, dtbn))))
-        dtr_a = v3.add(v3.scale(bad, v3.sub(v1, v0)), v3.add(v3.scale(1.0 - beta_a, dv0), v3.scale(beta_a, dv1)))
-        dtr_b = v3.add(v3.scale(bbd, v3.sub(v3_, v2)), v3.add(v3.scale(1.0 - beta_b, dv2), v3.scale(beta_b, dv3)))
-        dw = v3.sub(v3.add(dtr_a, drot_a), v3.sub(dtr_b, drot_b))
+        dn = v3.scale(isn, v3.axpy(-dfn, n, dS))
+        bad = dbeta_a[m]
+        bbd = dbeta_b[m]
+        dw = v3.axpy(bad, eda, v3.axpy(-bbd, edb, _mat_vec(ma, 0, dn)))
+        dga = _mat_vec(ma, 3, dn)
+        dgb = _mat_vec(mb, 3, dn)
+        # the node's own column: translation of the contact point, turn and stretch of its edge
+        if node == 0:
+            dw = v3.sub(dw, _column(ma, 1, comp))
+            wt = (1.0 - beta_a) * idt
+            dga = v3.sub(dga, _column(ma, 4, comp))
+            sta = -ra[comp]
+            stb = 0.0
+        elif node == 1:
+            dw = v3.add(dw, _column(ma, 1, comp))
+            wt = beta_a * idt
+            dga = v3.add(dga, _column(ma, 4, comp))
+            sta = ra[comp]
+            stb = 0.0
+        elif node == 2:
+            dw = v3.sub(dw, _column(mb, 1, comp))
+            wt = -(1.0 - beta_b) * idt
+            dgb = v3.sub(dgb, _column(mb, 4, comp))
+            sta = 0.0
+            stb = -rb[comp]
+        else:
+            dw = v3.add(dw, _column(mb, 1, comp))
+            wt = -beta_b * idt
+            dgb = v3.add(dgb, _column(mb, 4, comp))
+            sta = 0.0
+            stb = rb[comp]
+        if comp == 0:
+            dw = (dw[0] + wt, dw[1], dw[2])
+        elif comp == 1:
+            dw = (dw[0], dw[1] + wt, dw[2])
+        else:
+            dw = (dw[0], dw[1], dw[2] + wt)
         du = tangential_dot(w, dw, wn, n, dn)
         df = law_force_dot(kappa, dt, mu, fnorm, dfn, phi, psi, vec, du)
-        dga = lever_force_dot(ca, dca, ta, dta, f, df, n, dn)
-        dgb = lever_force_dot(cb, dcb, tb, dtb, f, df, n, dn)
+        dga = v3.add(dga, _mat_vec(ma, 2, df))
+        dgb = v3.add(dgb, _mat_vec(mb, 2, df))
         for r in range(3):
             jac_out[r, m] = -bad * f[r] + (1.0 - beta_a) * df[r] - dga[r]
             jac_out[3 + r, m] = bad * f[r] + beta_a * df[r] + dga[r]
             jac_out[6 + r, m] = bbd * f[r] - (1.0 - beta_b) * df[r] - dgb[r]
             jac_out[9 + r, m] = -bbd * f[r] - beta_b * df[r] + dgb[r]
-        jac_out[12, m] = -ha * (v3.dot(dtan, f) + v3.dot(tan, df))
-        jac_out[13, m] = -hb * (v3.dot(dtbn, f) + v3.dot(tbn, df))
+        jac_out[12, m] = -ha * (v3.dot(tan, df) + v3.dot(fta, dn) + sta)
+        jac_out[13, m] = -hb * (v3.dot(tbn, df) + v3.dot(ftb, dn) + stb)
+    for m in range(12, 14):
+        # an edge angle turns: only the rotational velocity of its surface point changes
+        dw = v3.scale(-ha * idt, tan) if m == 12 else v3.scale(-hb * idt, tbn)
+        du = v3.axpy(-v3.dot(dw, n), n, dw)
+        df = law_force_dot(kappa, dt, mu, fnorm, 0.0, phi, psi, vec, du)
+        dga = _mat_vec(ma, 2, df)
+        dgb = _mat_vec(mb, 2, df)
+        for r in range(3):
+            jac_out[r, m] = (1.0 - beta_a) * df[r] - dga[r]
+            jac_out[3 + r, m] = beta_a * df[r] + dga[r]
+            jac_out[6 + r, m] = -(1.0 - beta_b) * df[r] - dgb[r]
+            jac_out[9 + r, m] = -beta_b * df[r] + dgb[r]
+        jac_out[12, m] = -ha * v3.dot(tan, df)
+        jac_out[13, m] = -hb * v3.dot(tbn, df)
     return s, rolling
 
 
