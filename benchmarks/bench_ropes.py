@@ -10,13 +10,17 @@ pair of ropes crosses at least once, most several times. No gravity. Both ends o
 (two nodes each, clamped) move at constant velocity, in ``(warmup + steps) × dt`` from the rope's
 height ``z_k`` to ``-z_k`` and ``--slack`` (default 0.2 m) towards the z axis: the layers are
 pressed through each other while the slack ropes buckle onto each other into a tangle. mu = 0.3,
-dt = 2.5 ms, default contact settings; the seed (``--seed``, default 1) fixes the shapes.
+dt = 2.5 ms, default contact settings (``--friction-model centreline`` for the centre-line law); the
+seed (``--seed``, default 1) fixes the shapes.
 
 Prints one JSON line: ms per step, Newton iterations per step, rope-rope contacts and candidate
 pairs per step (means over the timed steps; ``jacobian_pairs``: the pairs with a Jacobian block),
 unknowns, ms per step per contact and per 1000 unknowns, the time split (broad phase, narrow
-phase = contact evaluate, elastic forces, assembly, linear solve, Python/other) and, as answer
-checks, the height of the tangle (m, ``stack_height``) and the total contact force (N) at the end.
+phase = contact evaluate, elastic forces, assembly, the linear solve as pattern analyses, numeric
+factorisations and solves, Python/other) and, as answer
+checks, the height of the tangle (m, ``stack_height``) and the total contact force (N) at the end, and
+the size of the sparse factorisation of the last pattern (``factorisation``: nonzeros of the matrix
+and of ``L``, fill, multiply-adds of one factorisation, supernodes, largest front).
 """
 
 from __future__ import annotations
@@ -58,7 +62,7 @@ def rope_shapes(n_ropes: int, n_nodes: int, seed: int) -> list[np.ndarray]:
 
 
 def build(n_ropes: int, n_nodes: int, seed: int, press_time: float, slack: float, dt: float = 2.5e-3,
-          mu: float = 0.3):
+          mu: float = 0.3, friction_model: str | None = None):
     """The simulation and its rope-rope contact; at ``press_time`` (s) the grips of every rope have
     moved from its height ``z_k`` to ``-z_k`` and ``slack`` (m) towards the z axis."""
     shapes = rope_shapes(n_ropes, n_nodes, seed)
@@ -71,13 +75,16 @@ def build(n_ropes: int, n_nodes: int, seed: int, press_time: float, slack: float
             inward = -end[:2] / np.linalg.norm(end[:2])  # each end towards the axis, to the mirrored height
             v = [slack * inward[0] / press_time, slack * inward[1] / press_time, -2.0 * float(x[0, 2]) / press_time]
             bcs.move(f"rope{k}_{tag}", rod=f"rope{k}", nodes=nodes, path=v)
-    contact = ks.Contact(model, ks.ContactOptions(mu=mu))
+    options = ks.ContactOptions(mu=mu) if friction_model is None else ks.ContactOptions(mu=mu, friction_model=friction_model)
+    contact = ks.Contact(model, options)
     sim = ks.Simulation(model, bcs, ks.SolverOptions(dt=dt), interactions=[contact])
     return sim, contact
 
 
-def run(n_ropes: int, n_nodes: int, steps: int, warmup: int, seed: int, slack: float = 0.2) -> dict:
-    sim, contact = build(n_ropes, n_nodes, seed, press_time=(warmup + steps) * 2.5e-3, slack=slack)
+def run(n_ropes: int, n_nodes: int, steps: int, warmup: int, seed: int, slack: float = 0.2,
+        friction_model: str | None = None) -> dict:
+    sim, contact = build(n_ropes, n_nodes, seed, press_time=(warmup + steps) * 2.5e-3, slack=slack,
+                         friction_model=friction_model)
     for _ in range(warmup):
         sim.step()
     st = sim.stepper
@@ -85,6 +92,9 @@ def run(n_ropes: int, n_nodes: int, steps: int, warmup: int, seed: int, slack: f
         for k in timers:
             timers[k] = 0.0
     rows0 = len(sim.rows)
+    relaxations0 = st.spin_relaxations
+    factorizations0 = st.factorizations
+    analysis0 = st.sparse_analysis_seconds
     cands = np.empty(steps)
     blocks = np.empty(steps)
     t0 = time.perf_counter()
@@ -98,7 +108,12 @@ def run(n_ropes: int, n_nodes: int, steps: int, warmup: int, seed: int, slack: f
     narrow, broad = contact.timers["narrow_phase"], contact.timers["broad_phase"]
     split = {"broad_phase": broad, "narrow_phase": narrow,
              "elastic_forces": st.timers["forces"] - narrow,  # stepper "forces" includes contact
-             "assembly": st.timers["assembly"], "linear_solve": st.timers["linear_solve"]}
+             "assembly": st.timers["assembly"]}
+    # the linear solve: pattern analyses (ordering, symbolic), numeric factorisations, solves
+    analysis = st.sparse_analysis_seconds - analysis0
+    split["pattern_analysis"] = analysis
+    split["factorization"] = st.timers["factorization"] - analysis
+    split["solves"] = st.timers["linear_solve"] - st.timers["factorization"]
     split["python_other"] = wall - sum(split.values())
     ms = 1e3 * wall / steps
     contacts = float(log["n_contacts"].mean())
@@ -112,6 +127,9 @@ def run(n_ropes: int, n_nodes: int, steps: int, warmup: int, seed: int, slack: f
             "failed_attempts": int(sim.n_failures), "max_penetration_ratio": float(log["max_penetration_ratio"].max()),
             "stack_height": float(np.ptp(x[:, 2])),
             "contact_force_total": float(log["contact_force_total"].iloc[-1]), "solver": st.last_solver,
+            "factorisation": st.sparse_factorisation, "friction_model": contact.options.friction_model,
+            "spin_relaxations": st.spin_relaxations - relaxations0,
+            "factorizations_per_step": (st.factorizations - factorizations0) / steps,
             "share": {k: round(v / wall, 4) for k, v in split.items()}}
 
 
@@ -123,8 +141,10 @@ def main() -> None:
     ap.add_argument("--warmup", type=int, default=100)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--slack", type=float, default=0.2, help="m every rope end moves towards the z axis")
+    ap.add_argument("--friction-model", choices=("surface", "centreline"), default=None,
+                    help="contact.friction_model (default: the library's, surface)")
     args = ap.parse_args()
-    print(json.dumps(run(args.ropes, args.nodes, args.steps, args.warmup, args.seed, args.slack)))
+    print(json.dumps(run(args.ropes, args.nodes, args.steps, args.warmup, args.seed, args.slack, args.friction_model)))
 
 
 if __name__ == "__main__":

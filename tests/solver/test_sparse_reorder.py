@@ -1,6 +1,7 @@
 """SparseSolver: a new pattern reuses the last fresh ordering while the fill stays low."""
 
 import numpy as np
+import pytest
 import scipy.sparse as sp
 
 from knotsim.solver.linear import REORDER_FILL_FACTOR, SparseSolver
@@ -57,3 +58,31 @@ def test_reused_ordering_solves_exactly_and_refreshes_when_fill_grows():
     solver.factorize(800, A3.indptr, A3.indices, A3.data, 3)
     assert solver.analyses == 3 and solver.fresh_orderings == 2
     assert np.abs(A3 @ solver.solve(b) - b).max() <= 1e-9 * np.abs(b).max()
+
+
+def test_statistics_describe_the_factorisation():
+    rng = np.random.default_rng(2)
+    solver = SparseSolver(blocks=np.arange(0, 4 * 60 + 1, 4))
+    assert solver.statistics is None
+    A = _chain_with_chords(60, [(5, 50), (20, 40)], rng)
+    solver.factorize(240, A.indptr, A.indices, A.data, 1)
+    stats = solver.statistics
+    lu = solver._lu
+    assert stats["unknowns"] == 240 and stats["matrix_nonzeros"] == A.nnz
+    assert stats["analyses"] == 1 and stats["fresh_orderings"] == 1
+    assert solver.analysis_seconds > 0.0
+    # the factor's pattern by a slow structural elimination of the permuted matrix (positive
+    # entries and positive updates: nothing cancels), column by column
+    P = A[lu.perm][:, lu.perm].toarray()
+    work = np.where(P != 0, 1.0, 0.0)
+    lower = np.zeros((240, 240), bool)
+    for j in range(240):  # right-looking elimination, marking every entry that becomes nonzero
+        col = np.flatnonzero(work[j + 1:, j] != 0) + j + 1
+        lower[col, j] = True
+        row = np.flatnonzero(work[j, j + 1:] != 0) + j + 1
+        work[np.ix_(col, row)] += 1.0  # structural update only
+    counts = lower.sum(axis=0)
+    assert stats["factor_nonzeros"] == int(counts.sum())
+    assert stats["multiply_adds"] == int(np.dot(counts, counts))
+    assert stats["fill"] == pytest.approx(counts.sum() / ((A.nnz - 240) / 2))
+    assert stats["supernodes"] >= 1 and stats["largest_front"] >= counts.max() + 1

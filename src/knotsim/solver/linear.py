@@ -10,6 +10,8 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from knotsim.errors import KnotsimError
@@ -87,6 +89,8 @@ class SparseSolver:
         #: symbolic analyses done, and how many of them computed a fresh ordering
         self.analyses = 0
         self.fresh_orderings = 0
+        #: wall seconds spent in the analyses (ordering and symbolic factorisation)
+        self.analysis_seconds = 0.0
         self._lu = None
         self._key = None
         self._splu = None
@@ -113,7 +117,9 @@ class SparseSolver:
         self._splu = None
         if self.method in ("auto", "fixed_lu"):
             if self._key != pattern_id or self._lu is None:
+                t0 = time.perf_counter()
                 self._lu = self._analyse(n, indptr, indices)
+                self.analysis_seconds += time.perf_counter() - t0
                 self._key = pattern_id
             try:
                 self._lu.factorize(data)
@@ -133,6 +139,23 @@ class SparseSolver:
         if self._splu is not None:
             return self._splu.solve(rhs)
         return self._lu.solve(rhs)
+
+    @property
+    def statistics(self) -> dict | None:
+        """The factorisation of the last pattern analysed: ``unknowns``, ``matrix_nonzeros``,
+        ``factor_nonzeros`` (strictly lower nonzeros of ``L``; ``U`` has as many), ``fill`` (their
+        ratio to the matrix's strictly lower nonzeros), ``multiply_adds`` of one factorisation,
+        ``supernodes`` and ``largest_front``, and over the solver's life the pattern ``analyses`` and
+        the ``fresh_orderings`` among them; ``None`` before the first (or with the pivoting fallback
+        only)."""
+        lu = self._lu
+        if lu is None:
+            return None
+        lower = (lu.nnz - lu.n) / 2
+        return {"unknowns": lu.n, "matrix_nonzeros": lu.nnz, "factor_nonzeros": int(lu.nnz_L),
+                "fill": float(lu.nnz_L / lower) if lower > 0 else float("nan"),
+                "multiply_adds": lu.factor_multiply_adds, "supernodes": lu.n_supernodes,
+                "largest_front": lu.max_front, "analyses": self.analyses, "fresh_orderings": self.fresh_orderings}
 
     @property
     def ordering_memory(self) -> tuple[np.ndarray, int, int] | None:

@@ -321,6 +321,20 @@ class Stepper:
         self.spin_iterations = 0
 
     # -- assembly -------------------------------------------------------------------------
+    @property
+    def sparse_factorisation(self) -> dict | None:
+        """Size of the sparse factorisation of the last pattern analysed (see
+        :attr:`knotsim.solver.linear.SparseSolver.statistics`: nonzeros of the matrix and of its
+        factor, fill, multiply-adds, supernodes, largest front); ``None`` while the banded solver
+        has served every solve."""
+        return self._sparse.statistics
+
+    @property
+    def sparse_analysis_seconds(self) -> float:
+        """Wall seconds the sparse solver spent analysing patterns (ordering, symbolic
+        factorisation; part of the ``factorization`` timer)."""
+        return self._sparse.analysis_seconds
+
     def _diagonal(self, dt: float) -> tuple[np.ndarray, float]:
         """``M/dt^2 + D/dt`` ``(n_dofs,)`` (kg/s^2) and its largest position entry, kept while
         ``dt`` (s) is unchanged (callers must not modify the array)."""

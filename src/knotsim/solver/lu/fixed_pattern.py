@@ -157,6 +157,14 @@ class FixedPatternLU:
         A = A.tocsc()
         return cls(A.shape[0], A.indptr, A.indices, **kwargs)
 
+    @property
+    def factor_multiply_adds(self) -> int:
+        """Multiply-adds of one numeric factorisation, ``Σ_j c_j²`` with ``c_j`` the strictly lower
+        nonzeros of column ``j`` of ``L`` (each column updates a ``c_j × c_j`` block of the rest; the
+        supernodes' padding is not counted)."""
+        counts = np.diff(self.Lp).astype(np.int64)
+        return int(np.dot(counts, counts))
+
     def same_pattern(self, indptr, indices) -> bool:
         """True if ``(indptr, indices)`` is exactly the CSC pattern this object was built for."""
         return (
