@@ -92,7 +92,10 @@ def test_self_tail_lengths_find_where_a_rope_meets_itself():
     x = np.vstack([out, turn, back])
     first, last = self_tail_lengths(x, h, 5e-4)
     mean_seg = float(np.mean(np.linalg.norm(np.diff(x, axis=0), axis=1)))
-    assert first == pytest.approx(0.3, abs=3 * mean_seg)
+    # the out strand enters the cut-off 2h + delta + l/2 of the returning strand's end (at x = 0.3,
+    # 2h away) where (0.3 − x)² + (2h)² = cut-off²: between nodes, found by interpolation
+    cutoff = 2 * h + 5e-4 + 0.5 * mean_seg
+    assert first == pytest.approx(0.3 - np.sqrt(cutoff**2 - (2 * h) ** 2), abs=1e-5)
     assert last <= mean_seg
     straight = np.column_stack([np.linspace(0, 1, 101), np.zeros(101), np.zeros(101)])
     assert self_tail_lengths(straight, h, 5e-4) == pytest.approx([1.0, 0.0])
@@ -227,3 +230,32 @@ def test_pulse_metrics_count_cycles_to_spill():
     drawn_in = KnotSecurity().metrics(_Ctx(load="pulses", pulse_period=1.0, n_pulses=5, spill_distance=0.01),
                                       log.assign(u_pull=-u))  # the knot settling: the end drawn in
     assert drawn_in["cycles_to_spill"] is None and not KnotSecurity().slipped(None, drawn_in)
+
+
+def test_tail_length_follows_a_rope_sliding_through_continuously():
+    """Rope A (along x) lies across rope B (along y, a node right under A) with their centre lines 2h
+    apart. Sliding A along its axis by s shortens its tail from the first end by exactly s: the entry
+    point into B's cut-off is fixed in space at 0.3 − sqrt(cut-off² − (2h)²). The measure follows s
+    between nodes (a tail counted in whole edges would move in steps of l = 5 mm)."""
+    from knotsim.protocols.two_rope_bend import tail_lengths
+
+    h, delta, seg = 1.6e-3, 5e-4, 5e-3
+    ya = np.arange(-0.1, 0.1 + 1e-12, seg)
+    rope_b = np.column_stack([np.full(ya.size, 0.3), ya, np.zeros(ya.size)])
+    cutoff = 2 * h + delta + 0.5 * seg
+    entry = 0.3 - np.sqrt(cutoff**2 - (2 * h) ** 2)
+    lengths = []
+    shifts = np.linspace(0.0, 3 * seg, 31)
+    for s in shifts:
+        xa = np.arange(0.0, 0.6 + 1e-12, seg) + s
+        rope_a = np.column_stack([xa, np.zeros(xa.size), np.full(xa.size, 2 * h)])
+        first, last = tail_lengths([rope_a, rope_b], [(0, 0), (0, 1)], h, delta)
+        lengths.append(first)
+        assert last == pytest.approx(0.6 + s - 0.3 - np.sqrt(cutoff**2 - (2 * h) ** 2), abs=0.1 * seg)
+    lengths = np.array(lengths)
+    # linear interpolation of the convex distance profile d(u) = sqrt(u² + (2h)²) between nodes l
+    # apart places the entry off by its chord's gap over the slope there, under a fifth of an edge
+    # here; a tenth of an edge is asked (a tail counted in whole edges is off by up to one)
+    assert np.abs(lengths - (entry - shifts)).max() <= 0.1 * seg
+    # no steps: between shifts a tenth of an edge apart it changes by the shift within half of it
+    assert np.abs(np.diff(lengths) + np.diff(shifts)).max() <= 0.5 * np.diff(shifts).max()

@@ -33,8 +33,10 @@ held end, positive in tension), ``u_pull`` (m): displacement of the pulled end a
 since the start, the tail lengths ``tail_a``, ``tail_b`` (m) and ``rope_gap`` (m): the smallest
 distance between a node of one rope and a node of the other.
 
-Tail length (definition): the arc length from a free end to the first node, walking inwards,
-that lies within ``2h + delta + l/2`` (``l`` the edge length) of a node of the *other* rope, i.e.
+Tail length (definition): the arc length from a free end, walking inwards, to where the rope
+first comes within ``2h + delta + l/2`` (``l`` the mean edge length) of a node of the *other* rope,
+interpolated along the edge between the last node outside and the first inside from their
+distances (so it changes continuously as rope slides through, not in steps of one edge), i.e.
 the length of the free tail outside the knot (a bend is held by the two ropes interlocking; a
 tail lying on its own standing part away from the knot does not count). Tail draw-in = decrease of the tail length over the
 run (positive when the knot swallows its tails); the pulled-end draw-in is the increase of
@@ -93,9 +95,37 @@ from knotsim.protocols.metrics import (
 from knotsim.protocols.timeline import measured_log, pull_start
 
 
+def entry_arc_length(x: np.ndarray, dist: np.ndarray, cutoff: float, from_last: bool) -> float:
+    """Arc length (m) from one end of a rope to where it first comes within ``cutoff`` of something
+    else, interpolated along the edge on which that happens.
+
+    ``x`` ``(N, 3)`` node positions (m); ``dist`` ``(N,)`` each node's distance (m) to the nearest
+    point of the other thing (``inf`` where farther than anything that matters); from the first node
+    (``from_last`` False) or the last. With ``i`` the first node (counted from that end) with
+    ``dist[i] <= cutoff`` and ``j`` the node before it, the entry is at the fraction
+    ``(dist[j] − cutoff)/(dist[j] − dist[i])`` of the edge from ``j`` to ``i``: the length changes
+    continuously as the rope slides, not in steps of one edge. The whole length when no node is
+    within ``cutoff``; 0 when the end node is."""
+    if from_last:
+        x = x[::-1]
+        dist = dist[::-1]
+    seg = np.linalg.norm(np.diff(x, axis=0), axis=1)
+    inside = np.flatnonzero(dist <= cutoff)
+    if inside.size == 0:
+        return float(seg.sum())
+    i = int(inside[0])
+    if i == 0:
+        return 0.0
+    d_out, d_in = float(dist[i - 1]), float(dist[i])
+    frac = 1.0 if not np.isfinite(d_out) else (d_out - cutoff) / (d_out - d_in)
+    return float(seg[:i - 1].sum() + frac * seg[i - 1])
+
+
 def tail_lengths(ropes: list[np.ndarray], free_ends: list[tuple[int, int]], radius: float,
                  delta: float) -> list[float]:
-    """Length (m) of each free tail outside the knot (see the module docstring).
+    """Length (m) of each free tail outside the knot (see the module docstring): the arc length from
+    the tail's end to where it first comes within ``2h + delta + l/2`` of a node of another rope
+    (``l`` the mean edge length), interpolated along the edge (:func:`entry_arc_length`).
 
     Parameters
     ----------
@@ -112,31 +142,36 @@ def tail_lengths(ropes: list[np.ndarray], free_ends: list[tuple[int, int]], radi
         seg = float(np.mean(np.linalg.norm(np.diff(x, axis=0), axis=1)))
         cutoff = 2.0 * radius + delta + 0.5 * seg
         others = np.concatenate([y for k, y in enumerate(ropes) if k != r])
-        near = cKDTree(others).query(x, distance_upper_bound=cutoff)[0] < np.inf
-        idx = np.flatnonzero(near)
-        if idx.size == 0:
-            out.append((len(x) - 1) * seg)
-        else:
-            out.append(float(idx[0] if end == 0 else len(x) - 1 - idx[-1]) * seg)
+        dist = cKDTree(others).query(x, distance_upper_bound=4.0 * cutoff)[0]
+        out.append(entry_arc_length(x, dist, cutoff, end == 1))
     return out
 
 
 def self_tail_lengths(x: np.ndarray, radius: float, delta: float) -> list[float]:
     """Length (m) of each end of one rope outside its own knot, ``[first end, last end]``: from the
-    end to the first node within the contact distance of the rope itself (cut-off as in
-    :func:`tail_lengths`), not counting the nodes next to it along the rope (within half a turn of
-    that distance, ``π`` x the cut-off of arc length: a bend cannot bring them closer).
+    end to where it first comes within the contact distance of the rope itself (cut-off as in
+    :func:`tail_lengths`, interpolated along the edge as there), not counting the nodes next to it
+    along the rope (within half a turn of that distance, ``π`` x the cut-off of arc length: a bend
+    cannot bring them closer).
 
     ``x`` ``(N, 3)`` node positions (m); ``radius`` and ``delta`` the rod radius and contact
     tolerance (m)."""
     seg = float(np.mean(np.linalg.norm(np.diff(x, axis=0), axis=1)))
     cutoff = 2.0 * radius + delta + 0.5 * seg
     skip = int(np.ceil(np.pi * cutoff / seg)) + 1
-    pairs = cKDTree(x).query_pairs(cutoff, output_type="ndarray")
-    far = pairs[np.abs(pairs[:, 0] - pairs[:, 1]) > skip] if len(pairs) else pairs
-    if far.size == 0:
-        return [(len(x) - 1) * seg, 0.0]  # no knot: the whole rope counted once, from its first end
-    return [float(far.min()) * seg, float(len(x) - 1 - far.max()) * seg]
+    # each node's distance to the nodes of the rope more than `skip` nodes away (inf beyond 4 cut-offs)
+    tree = cKDTree(x)
+    dist = np.full(len(x), np.inf)
+    pairs = tree.query_pairs(4.0 * cutoff, output_type="ndarray")
+    if len(pairs):
+        far = pairs[np.abs(pairs[:, 0] - pairs[:, 1]) > skip]
+        if far.size:
+            d = np.linalg.norm(x[far[:, 0]] - x[far[:, 1]], axis=1)
+            np.minimum.at(dist, far[:, 0], d)
+            np.minimum.at(dist, far[:, 1], d)
+    if not np.any(dist <= cutoff):
+        return [float(np.linalg.norm(np.diff(x, axis=0), axis=1).sum()), 0.0]  # no knot: counted once
+    return [entry_arc_length(x, dist, cutoff, False), entry_arc_length(x, dist, cutoff, True)]
 
 
 #: The ropes are *apart* when no node of one is within this many rod radii of a node of the other
