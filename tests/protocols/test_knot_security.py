@@ -166,6 +166,8 @@ def test_hold_metrics_measure_the_drift():
     assert m["hold_window"] == pytest.approx(10.49 - 1.0, abs=0.02)
     assert m["drift_pull_late_rate"] == pytest.approx(1e-5, rel=1e-6)
     assert m["drift_pull_late"] == pytest.approx(1e-5 * (10.49 - 1.0) / 2, rel=0.01)
+    assert m["drift_tails_late_rate"] == pytest.approx(1e-5, rel=1e-6)
+    assert m["drift_tails_late"] == pytest.approx(1e-5 * (10.49 - 1.0) / 2, rel=0.01)
 
 
 @pytest.mark.parametrize("knot", ["reef_bend", "single_rod_reef"])

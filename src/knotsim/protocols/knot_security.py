@@ -58,10 +58,11 @@ not set); then by mode ``slip_load`` (N), ``slip_load_norm`` and ``slip_onset`` 
 ``slip_during_transient``: the end was already running away when the detection began, after the
 ``transient``, so the slip load is at most the value given),
 ``drift_pull``, ``drift_tails`` (m over the hold after its rise) and their rates (m/s), and
-``drift_pull_late`` with its rate over the second half of the hold (hold: an outward drift beyond
-``hold_drift`` there, the loaded end pulled out of the knot, counts as a slip, criterion
-``"drift"``; an end drawn in against the load is the knot still settling, reported, not a slip; the tail lengths move in
-steps of one edge length, as a node comes within or leaves the contact distance of the other rope),
+``drift_pull_late``, ``drift_tails_late`` with their rates over the second half of the hold (hold:
+an outward drift of the loaded end beyond ``hold_drift`` there, the end pulled out of the knot,
+counts as a slip, criterion ``"drift"``; an end drawn in against the load is the knot still
+settling, reported, not a slip; the tails' drift is reported, positive when drawn into the knot,
+their lengths interpolated along the edge where they enter it, ``None`` for one-rope knots),
 ``sliding_resistance`` (N) and its norm (slide). Outcomes as for ``two-rope-bend``: ``untied``
 (the ropes apart and unlinked), ``slipped`` (the loaded end ran away), ``undecided`` (a load stage
 too short to tell), else held.
@@ -405,6 +406,13 @@ class KnotSecurity(TwoRopeBend):
                 if np.count_nonzero(late) >= 2:
                     out["drift_pull_late"] = float(up[late][-1] - up[late][0])
                     out["drift_pull_late_rate"] = float(np.polyfit(tw[late], up[late], 1)[0])
+                    # the tails over the same half: rope passing through the knot draws them in; the
+                    # knot opening up after the set tension was relaxed draws them in too, in the
+                    # first half (a set reef bend at μ = 0.26: 115 mm over the hold, under 1 mm late)
+                    out["drift_tails_late"] = (float(tails[late][0] - tails[late][-1]) if tails is not None
+                                               else None)
+                    out["drift_tails_late_rate"] = (float(-np.polyfit(tw[late], tails[late], 1)[0])
+                                                    if tails is not None else None)
                     # a slip pays rope out under the load; a loaded end drawn in (the knot still
                     # settling after the set, against the load) is not one
                     if k is None and out["drift_pull_late"] > float(p["hold_drift"]):

@@ -115,6 +115,7 @@ def critical_friction(knot: str, load: float, *, mu_low: float = 0.05, mu_high: 
         m = res["metrics"]
         out.runs.append({"mu": mu, "holds": ok, "outcome": res["outcome"], "drift_pull": m.get("drift_pull"),
                          "drift_pull_late": m.get("drift_pull_late"), "drift_tails": m.get("drift_tails"),
+                         "drift_tails_late": m.get("drift_tails_late"),
                          "set_creep": m.get("set_creep"), "in_knot_set": m.get("in_knot_set"),
                          "slip_load": m.get("slip_load")})
         return ok
