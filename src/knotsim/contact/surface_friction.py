@@ -290,8 +290,9 @@ def surface_friction_pair(p, p_prev, theta, theta_prev, dt, mu, nu, ha, hb, fc, 
     # position moves the normal (dn = (I − n nᵀ) dS/|S|, dF_n = n·dS, dS from dfc), the contact
     # ratios (∂β/∂p) and, for a node of edge a or b, that edge's tangent, length and rate.
     isn = 1.0 / sn
-    ma = np.empty((5, 3, 3))
-    mb = np.empty((5, 3, 3))
+    mats = np.empty((2, 5, 3, 3))  # one allocation for both edges' matrices
+    ma = mats[0]
+    mb = mats[1]
     ra, fta = edge_jacobian_terms(ca, ha, la, ta, eda, wa, n, f, idt, ma)
     rb, ftb = edge_jacobian_terms(cb, hb, lb, tb, edb, wb, n, f, idt, mb)
     for i in range(3):
