@@ -5,7 +5,9 @@ Run: ``python validation/critical_friction_curves.py KNOT [--loads 0.002,0.005,0
 bisects μ between 0.1 and 0.6 down to a bracket 0.05 wide, with hold runs of ``knot-security`` set up
 as the study ``security_mu`` (N = 201, dt = 2.5 ms, set at 10 mN for 3 s, relaxed to 1 mN, the load
 reached over 1 s and held for 10 s; a run holds when its loaded end never ran away, the ropes did not
-come apart and the end drifted less than 1 mm over the hold). Each knot and load is written as soon
+come apart and less than 1 mm of rope passed through the knot over the second half of the hold: the
+smaller of the loaded end's outward drift and the tails' draw-in, ``drift_through_late``; see
+:func:`knotsim.study.critical.holds`). Each knot and load is written as soon
 as it is done (``<knot>_<load in mN>mN.json``: the bracket and every run), so a cut session keeps
 what finished; ``--table`` then writes ``critical.md`` and ``critical.png`` from every JSON file in
 the folder. Two knots run side by side as two processes (one per core).
@@ -26,6 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 OVERRIDES = {"n_nodes": 201, "dt": 2.5e-3, "set_tension": 0.01, "set_ramp": 1.0, "set_hold": 3.0,
              "hold_tension": 0.001, "relax_time": 0.5, "output_interval": 0.25}
 MU_LOW, MU_HIGH, TOL = 0.1, 0.6, 0.05
+DRIFT_LIMIT = 1e-3  # m of rope through the knot over the hold's second half (the library's default)
 
 
 def run(knot: str, loads: list[float], out: Path) -> None:
@@ -37,10 +40,12 @@ def run(knot: str, loads: list[float], out: Path) -> None:
         if path.is_file():
             continue
         t0 = time.time()
-        res = ks.critical_friction(knot, load, mu_low=MU_LOW, mu_high=MU_HIGH, tol=TOL, overrides=OVERRIDES)
+        res = ks.critical_friction(knot, load, mu_low=MU_LOW, mu_high=MU_HIGH, tol=TOL, drift_limit=DRIFT_LIMIT,
+                                   overrides=OVERRIDES)
         path.write_text(json.dumps({"knot": knot, "load": load, "mu_slip": res.mu_slip, "mu_hold": res.mu_hold,
                                     "mu_c": res.mu_c, "runs": res.runs, "overrides": OVERRIDES,
-                                    "bracket": [MU_LOW, MU_HIGH], "tol": TOL,
+                                    "bracket": [MU_LOW, MU_HIGH], "tol": TOL, "drift_limit": DRIFT_LIMIT,
+                                    "hold_rule": "drift_through_late < drift_limit",
                                     "wall_time_s": round(time.time() - t0, 1)}, indent=1))
 
 

@@ -114,7 +114,11 @@ class _Ctx:
         self.geometry = None
 
 
-def _log(t_slip=None, rate=0.002, hold=0.001, mode="ramp", hold_load=0.005, drift=0.0):
+def _log(t_slip=None, rate=0.002, hold=0.001, mode="ramp", hold_load=0.005, drift=0.0, tails_follow=1.0,
+         tails_in=0.0, one_rope=False):
+    """A knot-security log: the loaded end out at ``drift`` m/s from the load's start (``t_slip``: then
+    running away); the two tails drawn in by ``tails_follow`` times the loaded end's displacement (rope
+    passing through the knot) plus ``tails_in`` m/s (the knot drawing up); ``one_rope``: no tails."""
     t = np.arange(0.0, 12.0, 0.01)
     t_load = t - 1.5
     if mode == "ramp":
@@ -125,8 +129,12 @@ def _log(t_slip=None, rate=0.002, hold=0.001, mode="ramp", hold_load=0.005, drif
     if t_slip is not None:
         u = u + np.where(t_load > t_slip, 0.2 * (t_load - t_slip), 0.0)
     in_knot = 0.3 - 0.05 * np.minimum(t, 1.0) + 0.0 * t
-    return pd.DataFrame({"time": t, "F": f, "F_norm": f * 4e-6 / 2.26e-6, "u_pull": u, "tail_a": 0.3 - u / 2,
-                         "tail_b": 0.3 - u / 2, "rope_gap": np.full(t.size, 4e-3), "in_knot": in_knot})
+    tail = 0.3 - (tails_follow * u + tails_in * np.maximum(t_load, 0)) / 2
+    if one_rope:
+        tail = np.full(t.size, np.nan)
+    return pd.DataFrame({"time": t, "F": f, "F_norm": f * 4e-6 / 2.26e-6, "u_pull": u, "tail_a": tail,
+                         "tail_b": tail, "rope_gap": np.full(t.size, 4e-3 if not one_rope else np.nan),
+                         "in_knot": in_knot})
 
 
 def test_ramp_metrics_find_the_slip_load():
@@ -150,6 +158,34 @@ def test_ramp_metrics_find_the_slip_load():
 def test_hold_that_drifts_has_slipped():
     m = KnotSecurity().metrics(_Ctx(load="hold"), _log(mode="hold", drift=4e-3))  # 19 mm over the late half
     assert m["slip_onset"]["criterion"] == "drift" and KnotSecurity().slipped(None, m)
+    assert m["drift_through_late"] == pytest.approx(4e-3 * (10.49 - 1.0) / 2, rel=0.01)
+    # rope through the knot is the lesser of the two motions: tails drawn in by half the end's drift
+    half = KnotSecurity().metrics(_Ctx(load="hold"), _log(mode="hold", drift=4e-3, tails_follow=0.5))
+    assert half["drift_through_late"] == pytest.approx(0.5 * m["drift_through_late"], rel=1e-6)
+    assert half["slip_onset"]["criterion"] == "drift"
+
+
+@pytest.mark.parametrize("case", ["end_out_tails_still", "tails_in_end_still", "tails_in_end_in"])
+def test_hold_slips_only_when_rope_passes_through(case):
+    """A slip lets rope through the knot: the loaded end out and the tails in. Either alone is the
+    knot changing shape or drawing up (a set reef bend relaxed to 1 mN draws its tails in by 115 mm
+    over a hold it survives), and a loaded end drawn in against the load is the knot settling."""
+    kw = {"end_out_tails_still": {"drift": 4e-3, "tails_follow": 0.0},
+          "tails_in_end_still": {"drift": 0.0, "tails_in": 4e-3},
+          "tails_in_end_in": {"drift": -1e-3, "tails_follow": 0.0, "tails_in": 4e-3}}[case]
+    m = KnotSecurity().metrics(_Ctx(load="hold"), _log(mode="hold", **kw))
+    assert max(m["drift_pull_late"], m["drift_tails_late"]) > 0.01  # one of the two moved 19 mm
+    assert m["drift_through_late"] <= 1e-9
+    assert m["slip_onset"] is None and not KnotSecurity().slipped(None, m)
+
+
+def test_one_rope_hold_is_decided_by_its_loaded_ends():
+    """A one-rope knot has no free tails: its loaded ends' outward drift decides."""
+    out = KnotSecurity().metrics(_Ctx(load="hold"), _log(mode="hold", drift=4e-3, one_rope=True))
+    assert out["drift_tails_late"] is None and out["drift_through_late"] == out["drift_pull_late"] > 0.01
+    assert out["slip_onset"]["criterion"] == "drift"
+    still = KnotSecurity().metrics(_Ctx(load="hold"), _log(mode="hold", drift=1e-5, one_rope=True))
+    assert still["slip_onset"] is None and still["drift_through_late"] == pytest.approx(4.7e-5, rel=0.02)
 
 
 def test_hold_drawn_in_is_settling_not_slipping():

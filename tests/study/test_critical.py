@@ -21,7 +21,8 @@ def fake_runner(mu_c, calls):
         ok = mu >= mu_c
         return {"outcome": "held" if ok else "slipped",
                 "metrics": {"slip_onset": None if ok else {"time": 1.0}, "decidable": True,
-                            "drift_pull": 1e-6 if ok else 0.3, "drift_pull_late": 1e-6 if ok else 0.2}}
+                            "drift_pull": 1e-6 if ok else 0.3, "drift_pull_late": 1e-6 if ok else 0.2,
+                            "drift_through_late": 1e-6 if ok else 0.2}}
 
     return run
 
@@ -46,14 +47,21 @@ def test_open_brackets():
 
 def test_hold_is_decided_by_motion():
     base = {"outcome": "held", "metrics": {"slip_onset": None, "decidable": True, "drift_pull": 3e-3,
-                                           "drift_pull_late": 2e-4}}
+                                           "drift_pull_late": 2e-4, "drift_through_late": 2e-4}}
+
+    def with_(**metrics):
+        return {**base, "metrics": {**base["metrics"], **metrics}}
+
     assert holds(base, 1e-3)  # the take-up in the first half of the hold does not count
-    assert not holds({**base, "metrics": {**base["metrics"], "drift_pull_late": 2e-3}}, 1e-3)  # crept too far
-    assert not holds({**base, "metrics": {**base["metrics"], "drift_pull_late": None}}, 1e-3)  # not measured
-    assert holds({**base, "metrics": {**base["metrics"], "drift_pull_late": -5e-3}}, 1e-3)  # drawn in: settling
+    assert not holds(with_(drift_pull_late=2e-3, drift_through_late=2e-3), 1e-3)  # rope let through
+    # the loaded end out while the tails stay (the knot changing shape): no rope passed through
+    assert holds(with_(drift_pull_late=2e-3, drift_tails_late=0.0, drift_through_late=0.0), 1e-3)
+    assert not holds(with_(drift_through_late=None), 1e-3)  # not measured
+    assert holds(with_(drift_pull_late=-5e-3, drift_through_late=-5e-3), 1e-3)  # drawn in: settling
     assert not holds({**base, "outcome": "untied"}, 1e-3)
+    assert not holds(with_(slip_onset={"time": 3.0, "criterion": "runaway"}), 1e-3)
     with pytest.raises(ConfigError, match="load_time"):
-        holds({**base, "metrics": {**base["metrics"], "decidable": False}}, 1e-3)
+        holds(with_(decidable=False), 1e-3)
 
 
 @pytest.mark.parametrize("kw, field", [({"load": 0.0}, "load"), ({"load": 1.0, "tol": -1}, "tol"),

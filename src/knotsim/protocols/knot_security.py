@@ -58,11 +58,15 @@ not set); then by mode ``slip_load`` (N), ``slip_load_norm`` and ``slip_onset`` 
 ``slip_during_transient``: the end was already running away when the detection began, after the
 ``transient``, so the slip load is at most the value given),
 ``drift_pull``, ``drift_tails`` (m over the hold after its rise) and their rates (m/s), and
-``drift_pull_late``, ``drift_tails_late`` with their rates over the second half of the hold (hold:
-an outward drift of the loaded end beyond ``hold_drift`` there, the end pulled out of the knot,
-counts as a slip, criterion ``"drift"``; an end drawn in against the load is the knot still
-settling, reported, not a slip; the tails' drift is reported, positive when drawn into the knot,
-their lengths interpolated along the edge where they enter it, ``None`` for one-rope knots),
+``drift_pull_late``, ``drift_tails_late`` with their rates over the second half of the hold (the
+tails' drift positive when drawn into the knot, their lengths interpolated along the edge where they
+enter it, ``None`` for one-rope knots) and ``drift_through_late`` (m), the rope let through the knot
+over that half: the smaller of the loaded end's outward drift and the tails' draw-in (a one-rope
+knot: its loaded ends' drift). Hold: ``drift_through_late`` beyond ``hold_drift`` is a slip,
+criterion ``"drift"``: rope passing through the knot pays the loaded end out and draws the tails in
+by about as much. A loaded end drawn in against the load (the knot still settling), tails drawn in
+while the loaded end stays (the knot drawing up after its set tension was relaxed) and a loaded end
+let out while the tails stay (the knot changing shape) are reported, not slips;
 ``sliding_resistance`` (N) and its norm (slide). Outcomes as for ``two-rope-bend``: ``untied``
 (the ropes apart and unlinked), ``slipped`` (the loaded end ran away), ``undecided`` (a load stage
 too short to tell), else held.
@@ -144,7 +148,7 @@ class KnotSecurity(TwoRopeBend):
         "runaway_speed": 0.05,  # m/s: the loaded end faster than this for 0.5 s = running away
         "slip_speed": 0.002,   # m/s: faster than this for 0.5 s = slipping slowly (ramp); the elastic
                                # stretch of the standing part under the ramp moves it at ~0.4 mm/s
-        "hold_drift": 0.001,   # m: a hold whose loaded end moved further out over its second half slipped
+        "hold_drift": 0.001,   # m: a hold that let more rope through the knot over its second half slipped
         "transient": 1.0,      # s at the start of the load stage left out of the slip detection
         "output_interval": 0.1,
     }
@@ -413,9 +417,16 @@ class KnotSecurity(TwoRopeBend):
                                                else None)
                     out["drift_tails_late_rate"] = (float(-np.polyfit(tw[late], tails[late], 1)[0])
                                                     if tails is not None else None)
-                    # a slip pays rope out under the load; a loaded end drawn in (the knot still
-                    # settling after the set, against the load) is not one
-                    if k is None and out["drift_pull_late"] > float(p["hold_drift"]):
+                    # a slip lets rope through the knot: it pays the loaded end out under the load
+                    # and draws the tails in, by about as much. A loaded end drawn in (the knot still
+                    # settling after the set, against the load) is no slip, nor are tails drawn in
+                    # while the loaded end stays (the knot drawing up), nor a loaded end let out while
+                    # the tails stay (the knot changing shape). One-rope knots have no free tails:
+                    # their loaded ends' drift decides.
+                    through = (out["drift_pull_late"] if tails is None
+                               else min(out["drift_pull_late"], out["drift_tails_late"]))
+                    out["drift_through_late"] = through
+                    if k is None and through > float(p["hold_drift"]):
                         i = int(np.flatnonzero(win)[np.argmax(late)])
                         out["slip_onset"] = {"time": float(t[i]), "force": float(f[i]), "criterion": "drift"}
             out["hold_load"] = float(p["hold_load"])

@@ -3,10 +3,11 @@
 :func:`critical_friction` runs the ``knot-security`` protocol in its ``"hold"`` mode (the knot set,
 relaxed, then the standing end loaded by ``load`` N and held) at friction coefficients chosen by
 bisection, and decides each run from the motion of the rope, never from the force alone: a run
-*holds* when the loaded end never ran away, the ropes did not come apart and the loaded end drifted
-out by less than ``drift_limit`` (m) over the second half of the hold (the protocol's own
-``hold_drift`` rule: the first half is the knot taking up the load; an end drawn in against the load
-is a knot still settling, not slipping). The answer is an interval ``[mu_slip, mu_hold]``: the
+*holds* when the loaded end never ran away, the ropes did not come apart and less than
+``drift_limit`` (m) of rope passed through the knot over the second half of the hold (the protocol's
+own ``hold_drift`` rule on ``drift_through_late``: the smaller of the loaded end's outward drift and
+the tails' draw-in; the first half is the knot taking up the load; an end drawn in against the load
+is a knot still settling, tails drawn in while the loaded end stays a knot drawing up). The answer is an interval ``[mu_slip, mu_hold]``: the
 largest μ tried that did not hold and the smallest that did, narrower than ``tol``. Monotonicity in
 μ is assumed (more friction holds at least as well), and checked at the ends of the bracket.
 """
@@ -30,9 +31,9 @@ class CriticalFriction:
     ``mu_slip`` and ``mu_hold`` bracket the critical μ (``mu_slip`` ``None`` when even the lowest μ
     held, ``mu_hold`` ``None`` when even the highest slipped); ``mu_c`` is their midpoint (``None``
     when the bracket is open) and ``width`` their distance; ``runs`` lists every run as
-    ``{"mu", "holds", "outcome", "drift_pull", "drift_pull_late", "drift_tails", "set_creep",
-    "in_knot_set", "slip_load"}`` (m, m, m, m/s, m, N) in the order they were made: the tails' drift
-    tells a knot letting rope through (its tails drawn in) from one still drawing up (tails still).
+    ``{"mu", "holds", "outcome", "drift_pull", "drift_pull_late", "drift_tails", "drift_tails_late",
+    "drift_through_late", "set_creep", "in_knot_set", "slip_load"}`` (m, m, m, m, m, m/s, m, N) in
+    the order they were made.
     """
 
     knot: str
@@ -55,19 +56,20 @@ class CriticalFriction:
 
 
 def holds(result: Any, drift_limit: float) -> bool:
-    """Whether a ``knot-security`` hold run (its summary) held: no run-away, not untied, and the
-    loaded end drifted out by less than ``drift_limit`` (m) over the second half of the hold
-    (``drift_pull_late``; the first half is the knot taking up the load: a reef bend set at 10 mN
-    moves about 3 mm there under 2 mN even at μ = 0.6, then micrometres; an end drawn in, against
-    the load, is the knot still settling and holds)."""
+    """Whether a ``knot-security`` hold run (its summary) held: no run-away, not untied, and less than
+    ``drift_limit`` (m) of rope passed through the knot over the second half of the hold
+    (``drift_through_late``: the smaller of the loaded end's outward drift and the tails' draw-in;
+    the loaded end's drift for a one-rope knot. The first half is the knot taking up the load: a reef
+    bend set at 10 mN moves about 3 mm there under 2 mN even at μ = 0.6. An end drawn in, against the
+    load, is the knot still settling and holds; so are tails drawn in while the loaded end stays)."""
     m = result["metrics"]
     if result["outcome"] in ("untied", "slipped") or m.get("slip_onset") is not None:
         return False
     if not m.get("decidable", False):
         raise ConfigError("load_time", "the hold was too short to tell whether the knot holds; give a longer "
                                        "load_time")
-    drift = m.get("drift_pull_late")
-    return drift is not None and float(drift) < drift_limit  # out of the knot; drawn in is settling
+    through = m.get("drift_through_late")
+    return through is not None and float(through) < drift_limit
 
 
 def critical_friction(knot: str, load: float, *, mu_low: float = 0.05, mu_high: float = 0.8, tol: float = 0.02,
@@ -83,7 +85,7 @@ def critical_friction(knot: str, load: float, *, mu_low: float = 0.05, mu_high: 
     mu_low, mu_high : the bracket searched; the knot must slip at ``mu_low`` and hold at ``mu_high``
         (else the answer says so with an open bracket).
     tol : width of the final bracket in μ.
-    drift_limit : m; a hold that moved the loaded end this far over its second half counts as
+    drift_limit : m; a hold that let this much rope through the knot over its second half counts as
         slipping (passed to the protocol as ``hold_drift``).
     overrides : further ``knot-security`` parameters (``set_tension``, ``load_time``, ``n_nodes``, ...).
     quick : the protocol's quick settings.
@@ -116,6 +118,7 @@ def critical_friction(knot: str, load: float, *, mu_low: float = 0.05, mu_high: 
         out.runs.append({"mu": mu, "holds": ok, "outcome": res["outcome"], "drift_pull": m.get("drift_pull"),
                          "drift_pull_late": m.get("drift_pull_late"), "drift_tails": m.get("drift_tails"),
                          "drift_tails_late": m.get("drift_tails_late"),
+                         "drift_through_late": m.get("drift_through_late"),
                          "set_creep": m.get("set_creep"), "in_knot_set": m.get("in_knot_set"),
                          "slip_load": m.get("slip_load")})
         return ok
