@@ -1,6 +1,6 @@
 """Critical friction against load: the least μ at which a set bend holds a load on its standing end.
 
-Run: ``python validation/critical_friction_curves.py KNOT [--loads 0.002,0.005,0.01] [--out DIR]``
+Run: ``python validation/critical_friction_curves.py KNOT [--loads 0.002,0.005,0.01] [--out DIR] [--set KEY=VALUE]``
 (default ``--out docs/studies/security_critical``). For each load, :func:`knotsim.critical_friction`
 bisects μ between 0.1 and 0.6 down to a bracket 0.05 wide, with hold runs of ``knot-security`` set up
 as the study ``security_mu`` (N = 201, dt = 2.5 ms, set at 10 mN for 3 s, relaxed to 1 mN, the load
@@ -31,9 +31,10 @@ MU_LOW, MU_HIGH, TOL = 0.1, 0.6, 0.05
 DRIFT_LIMIT = 1e-3  # m of rope through the knot over the hold's second half (the library's default)
 
 
-def run(knot: str, loads: list[float], out: Path) -> None:
+def run(knot: str, loads: list[float], out: Path, overrides: dict | None = None) -> None:
     import knotsim as ks
 
+    overrides = {**OVERRIDES, **(overrides or {})}
     out.mkdir(parents=True, exist_ok=True)
     for load in loads:
         path = out / f"{knot}_{load * 1e3:g}mN.json"
@@ -41,12 +42,19 @@ def run(knot: str, loads: list[float], out: Path) -> None:
             continue
         t0 = time.time()
         res = ks.critical_friction(knot, load, mu_low=MU_LOW, mu_high=MU_HIGH, tol=TOL, drift_limit=DRIFT_LIMIT,
-                                   overrides=OVERRIDES)
+                                   overrides=overrides)
         path.write_text(json.dumps({"knot": knot, "load": load, "mu_slip": res.mu_slip, "mu_hold": res.mu_hold,
-                                    "mu_c": res.mu_c, "runs": res.runs, "overrides": OVERRIDES,
+                                    "mu_c": res.mu_c, "runs": res.runs, "overrides": overrides,
                                     "bracket": [MU_LOW, MU_HIGH], "tol": TOL, "drift_limit": DRIFT_LIMIT,
                                     "hold_rule": "drift_through_late < drift_limit",
                                     "wall_time_s": round(time.time() - t0, 1)}, indent=1))
+
+
+def _changes_line(rows: list[dict]) -> list[str]:
+    """The settings in which these runs differ from the study's (``--set``), as lines of the table's head."""
+    changed = sorted({f"{k} = {v}" for r in rows for k, v in r.get("overrides", {}).items()
+                      if OVERRIDES.get(k) != v})
+    return [f"Changed from the study's set-up: {', '.join(changed)}.", ""] if changed else []
 
 
 def table(out: Path) -> None:
@@ -61,6 +69,7 @@ def table(out: Path) -> None:
              "(see the script's docstring for the set-up). μ_c lies between the largest μ tried that did "
              f"not hold and the smallest that did (bisection between {MU_LOW} and {MU_HIGH}, bracket "
              f"{TOL} wide); `< {MU_LOW}`: held at {MU_LOW}; `> {MU_HIGH}`: slipped at {MU_HIGH}.", "",
+             *_changes_line(rows),
              "| knot | load (mN) | load F h²/EI | μ slipped | μ held | μ_c | runs | wall time (min) |",
              "|---|---|---|---|---|---|---|---|"]
     norm = 0.002**2 / (0.18e6 * 3.141592653589793 * 0.002**4 / 4)  # h^2/EI of the rope, 1/N
@@ -94,10 +103,24 @@ def main() -> None:
     ap.add_argument("--loads", default="0.002,0.005,0.01", help="loads in N, comma-separated")
     ap.add_argument("--out", type=Path, default=ROOT / "docs" / "studies" / "security_critical")
     ap.add_argument("--table", action="store_true", help="write critical.md and critical.png from the JSON files")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="change one knot-security setting from the study's (e.g. n_nodes=301, dt=0.00125, "
+                         "set_tension=0.012); give --out too, the results are another study")
     args = ap.parse_args()
     out = args.out.resolve()
+    changes = {}
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            ap.error(f"--set takes KEY=VALUE, got {item!r}")
+        try:
+            changes[key] = int(value) if value.lstrip("-").isdigit() else float(value)
+        except ValueError:
+            changes[key] = value
+    if changes and out == (ROOT / "docs" / "studies" / "security_critical").resolve():
+        ap.error("--set changes the set-up: write to another folder with --out")
     if args.knot:
-        run(args.knot, [float(x) for x in args.loads.split(",")], out)
+        run(args.knot, [float(x) for x in args.loads.split(",")], out, changes)
     if args.table:
         table(out)
 
