@@ -48,7 +48,8 @@ def test_slide_and_hold_modes():
 
 
 @pytest.mark.parametrize("key, value, field", [("load", "pulse", "load"), ("hold_tension", 0.5, "hold_tension"),
-                                               ("set_tension", -1.0, "set_tension"), ("relax_time", 0.0, "relax_time")])
+                                               ("set_tension", -1.0, "set_tension"), ("relax_time", 0.0, "relax_time"),
+                                               ("set_still_rate", 0.0, "set_still_rate")])
 def test_bad_inputs_name_the_field(key, value, field):
     with pytest.raises(ConfigError, match=rf"^{field}:"):
         _spec(**{key: value})
@@ -153,6 +154,18 @@ def test_ramp_metrics_find_the_slip_load():
     held = KnotSecurity().metrics(_Ctx(), _log())
     assert held["slip_onset"] is None and held["slip_load"] is None
     assert held["largest_load_held"] == pytest.approx(0.001 + 0.002 * 10.49, rel=1e-3)
+
+
+def test_a_knot_still_moving_at_the_end_of_its_set_is_flagged():
+    """The rope in the knot still changing faster than set_still_rate when the set ended: the knot
+    was loaded before it was set; the metrics and the notes say so."""
+    moving = KnotSecurity().metrics(_Ctx(), _log(t_slip=4.0))  # the log's set creeps at -0.05 m/s
+    assert moving["set_still"] is False
+    (note,) = KnotSecurity().notes(_Ctx(), moving)
+    assert "still moving" in note and "-50 mm/s" in note and "set_hold" in note
+    still = KnotSecurity().metrics(_Ctx(set_still_rate=0.06), _log(t_slip=4.0))
+    assert still["set_still"] is True and KnotSecurity().notes(_Ctx(), still) == []
+    assert KnotSecurity().notes(_Ctx(), {"set_still": None}) == []  # not measured: no claim
 
 
 def test_hold_that_drifts_has_slipped():

@@ -149,6 +149,11 @@ class LoadingProtocol:
         """Whether the metrics say the knot slipped (used in the outcome)."""
         return False
 
+    def notes(self, ctx: RunContext, metrics: dict) -> list[str]:
+        """Warnings for the user that the metrics carry (added to the summary's ``notes``), e.g. a
+        knot loaded before its set was complete (default: none)."""
+        return []
+
     def verdict(self, ctx: RunContext, metrics: dict) -> str | None:
         """``"slipped"``, ``"loose"`` (never tightened) or ``"undecided"`` (too short to tell) from
         the metrics, or ``None`` when the knot held (default: ``"slipped"`` when :meth:`slipped`)."""

@@ -51,8 +51,9 @@ are apart).
 
 Metrics: ``set_tension`` (N) and its ``F h²/EI``; ``in_knot_set`` (m, at the end of the set stage)
 and ``in_knot_load`` (at the start of the load); ``set_creep`` (m/s, the rate at which the rope in the
-knot still changed over the last 20 % of the set hold: a knot that is still drawing itself in was
-not set); then by mode ``slip_load`` (N), ``slip_load_norm`` and ``slip_onset`` (ramp: the run-away;
+knot still changed over the last 20 % of the set hold) and ``set_still`` (``|set_creep|`` at most
+``set_still_rate``, 0.5 mm/s; false: the knot was still moving when the set ended, it was loaded
+before it was set, and the summary's notes say so); then by mode ``slip_load`` (N), ``slip_load_norm`` and ``slip_onset`` (ramp: the run-away;
 ``slow_slip_load`` and ``slow_slip_onset``: the loaded end moving faster than ``slip_speed`` for
 0.5 s, a slow slip that may come well before the run-away, with ``slow_slip_during_transient``;
 ``slip_during_transient``: the end was already running away when the detection began, after the
@@ -149,6 +150,8 @@ class KnotSecurity(TwoRopeBend):
         "slip_speed": 0.002,   # m/s: faster than this for 0.5 s = slipping slowly (ramp); the elastic
                                # stretch of the standing part under the ramp moves it at ~0.4 mm/s
         "hold_drift": 0.001,   # m: a hold that let more rope through the knot over its second half slipped
+        "set_still_rate": 5e-4,  # m/s: the rope in the knot changing faster than this at the end of the
+                                 # set hold = the knot was still moving, not set (a quarter of slip_speed)
         "transient": 1.0,      # s at the start of the load stage left out of the slip detection
         "output_interval": 0.1,
     }
@@ -167,6 +170,7 @@ class KnotSecurity(TwoRopeBend):
         t_set_ramp = _positive(p, "set_ramp")
         t_set = t_set_ramp + _positive(p, "set_hold", allow_zero=True)
         t_relax = _positive(p, "relax_time")
+        _positive(p, "set_still_rate")
         t_set_force = _positive(p, "set_tension")
         t_hold = _positive(p, "hold_tension", allow_zero=True)
         if t_hold > t_set_force:
@@ -325,6 +329,16 @@ class KnotSecurity(TwoRopeBend):
         return {"F": f, "F_norm": f * ctx.radius**2 / ctx.EI, "u_pull": u, "tail_a": outside[2],
                 "tail_b": outside[3], "rope_gap": rope_gap(ropes), "in_knot": max(total - float(sum(outside)), 0.0)}
 
+    def notes(self, ctx: RunContext, metrics: dict) -> list[str]:
+        """A knot still moving when its set ended (``set_still`` false) was loaded before it was set:
+        its loads are those of that moment of a set still under way."""
+        if metrics.get("set_still") is False:
+            return [f"the knot was still moving when the set ended: the rope in it changed at "
+                    f"{1e3 * metrics['set_creep']:+.3g} mm/s over the last fifth of the set hold (set_still_rate "
+                    f"= {1e3 * float(ctx.params['set_still_rate']):g} mm/s), so it was loaded before it was set; "
+                    "give a longer set_hold"]
+        return []
+
     def metrics(self, ctx: RunContext, log) -> dict:
         p = ctx.params
         data = getattr(ctx, "data", {})
@@ -343,6 +357,8 @@ class KnotSecurity(TwoRopeBend):
             tail = (t_all >= t_set - 0.2 * float(p["set_hold"])) & (t_all <= t_set)
             out["set_creep"] = (float(np.polyfit(t_all[tail], ink[tail], 1)[0])
                                 if np.count_nonzero(tail) >= 3 else None)
+            out["set_still"] = (None if out["set_creep"] is None
+                                else bool(abs(out["set_creep"]) <= float(p["set_still_rate"])))
         out.update(bend_names(ctx))
         if "rope_gap" in log.columns and t_all.size and np.isfinite(log["rope_gap"].iloc[-1]):  # a bend's two ropes
             gap = float(log["rope_gap"].iloc[-1])

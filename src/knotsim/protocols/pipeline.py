@@ -320,6 +320,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     topo_end = _topology(*proto.closure(ctx, curves))
     ctx.data["topology_end"] = topo_end
     metrics = proto.metrics(ctx, log) if len(log) else {}
+    notes = [*notes, *proto.notes(ctx, metrics)]
     verdict = proto.verdict(ctx, metrics) if len(log) else "undecided"
     status = knot_status(*topology_keys(proto, ctx, topo_start, topo_end), verdict=verdict)
     if status == "changed knot type":
