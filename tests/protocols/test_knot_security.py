@@ -168,6 +168,27 @@ def test_a_knot_still_moving_at_the_end_of_its_set_is_flagged():
     assert KnotSecurity().notes(_Ctx(), {"set_still": None}) == []  # not measured: no claim
 
 
+def test_set_until_still_holds_the_set_until_the_knot_stops_moving():
+    """set_until_still: a preliminary run finds when the rope in the knot stops changing; the run
+    holds its set that long, and its own measure of the set agrees that the knot had stopped."""
+    ov = {"set_hold": 0.2, "set_hold_max": 10.0, "load_time": 0.4, "transient": 0.1}
+    res = ks.run_protocol("knot-security", "reef_bend", quick=True, overrides={**ov, "set_until_still": True})
+    m, found = res["metrics"], res["metrics"]["set_until_still"]
+    assert found["still"] and found["preliminary_failure"] is None
+    assert 0.2 <= found["set_hold"] < 10.0 and abs(found["rate"]) <= 5e-4
+    assert res["parameters"]["set_hold"] == found["set_hold"] == m["set_hold"]
+    assert m["set_still"] is True and m["set_creep"] == found["rate"]  # the run's own window: the same samples
+    # a cap too short to reach stillness: the set lasts set_hold_max and the notes say why
+    capped = ks.run_protocol("knot-security", "reef_bend", quick=True,
+                             overrides={**ov, "set_until_still": True, "set_hold_max": 0.25})
+    rec = capped["metrics"]["set_until_still"]
+    assert not rec["still"] and rec["set_hold"] == 0.25 and capped["parameters"]["set_hold"] == 0.25
+    assert any("still moving after set_hold_max" in n for n in capped["notes"])
+    with pytest.raises(ConfigError, match="^set_hold_max:"):
+        ks.run_protocol("knot-security", "reef_bend", quick=True,
+                        overrides={**ov, "set_until_still": True, "set_hold": 2.0, "set_hold_max": 1.0})
+
+
 def test_hold_that_drifts_has_slipped():
     m = KnotSecurity().metrics(_Ctx(load="hold"), _log(mode="hold", drift=4e-3))  # 19 mm over the late half
     assert m["slip_onset"]["criterion"] == "drift" and KnotSecurity().slipped(None, m)

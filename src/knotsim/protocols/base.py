@@ -149,6 +149,14 @@ class LoadingProtocol:
         """Whether the metrics say the knot slipped (used in the outcome)."""
         return False
 
+    def adapt(self, ctx: RunContext, build) -> dict | None:
+        """Settings that a preliminary run decides before the run itself (e.g. how long a set must
+        last for the knot to stop moving): ``None`` (default: none), or ``{"overrides": {...},
+        "record": {...}, "notes": [...]}``; the run is then built again with ``overrides`` added, and
+        ``record`` is kept in ``ctx.data["adapted"]``. ``build(extra)`` returns ``(protocol, ctx,
+        spec, notes)`` of this run with the overrides ``extra`` added (for the preliminary run)."""
+        return None
+
     def notes(self, ctx: RunContext, metrics: dict) -> list[str]:
         """Warnings for the user that the metrics carry (added to the summary's ``notes``), e.g. a
         knot loaded before its set was complete (default: none)."""

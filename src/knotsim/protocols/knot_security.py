@@ -51,7 +51,8 @@ are apart).
 
 Metrics: ``set_tension`` (N) and its ``F h²/EI``; ``in_knot_set`` (m, at the end of the set stage)
 and ``in_knot_load`` (at the start of the load); ``set_creep`` (m/s, the rate at which the rope in the
-knot still changed over the last 20 % of the set hold) and ``set_still`` (``|set_creep|`` at most
+knot still changed over the last ``set_still_window`` of the set hold, 0.5 s, a least-squares line)
+and ``set_still`` (``|set_creep|`` at most
 ``set_still_rate``, 0.5 mm/s; false: the knot was still moving when the set ended, it was loaded
 before it was set, and the summary's notes say so); then by mode ``slip_load`` (N), ``slip_load_norm`` and ``slip_onset`` (ramp: the run-away;
 ``slow_slip_load`` and ``slow_slip_onset``: the loaded end moving faster than ``slip_speed`` for
@@ -98,6 +99,12 @@ from knotsim.protocols.two_rope_bend import (
 __all__ = ["KnotSecurity"]
 
 LOAD_MODES = ("ramp", "hold", "slide", "pulses")
+#: s between the checks of the rope in the knot's rate while ``set_until_still`` looks for the end of the set
+STILL_CHECK = 0.05
+
+
+class _SetIsStill(Exception):
+    """Ends the preliminary run of ``set_until_still`` once the knot has stopped moving."""
 
 
 def pulse_load(t_load: float, base: float, peak: float, period: float, n: int) -> float:
@@ -152,6 +159,10 @@ class KnotSecurity(TwoRopeBend):
         "hold_drift": 0.001,   # m: a hold that let more rope through the knot over its second half slipped
         "set_still_rate": 5e-4,  # m/s: the rope in the knot changing faster than this at the end of the
                                  # set hold = the knot was still moving, not set (a quarter of slip_speed)
+        "set_until_still": False,  # hold the set until the knot stops moving (at least set_hold, at most
+                                   # set_hold_max), found by a preliminary run of the set stage
+        "set_hold_max": 20.0,  # s (set_until_still)
+        "set_still_window": 0.5,  # s over which the rope in the knot must change slower than set_still_rate
         "transient": 1.0,      # s at the start of the load stage left out of the slip detection
         "output_interval": 0.1,
     }
@@ -329,12 +340,92 @@ class KnotSecurity(TwoRopeBend):
         return {"F": f, "F_norm": f * ctx.radius**2 / ctx.EI, "u_pull": u, "tail_a": outside[2],
                 "tail_b": outside[3], "rope_gap": rope_gap(ropes), "in_knot": max(total - float(sum(outside)), 0.0)}
 
+    def adapt(self, ctx: RunContext, build) -> dict | None:
+        """With ``set_until_still``: how long the set must be held for the knot to stop moving, found
+        by a preliminary run of the set stage alone (held for up to ``set_hold_max``): the rope in the
+        knot is measured after every step, and from ``set_hold`` into the hold on, every
+        ``STILL_CHECK`` s, the first time its rate of change over the last ``set_still_window`` s (a
+        least-squares line through those samples, the run's own ``set_creep``) and over the window
+        before it are both at most ``set_still_rate`` ends the set (one window alone can catch a
+        turning point of a knot still working itself in and out). The run itself then holds the set that long (its
+        ``set_hold``; ``metrics["set_until_still"]`` records the search)."""
+        p = ctx.params
+        if not isinstance(p["set_until_still"], bool):
+            raise ConfigError("set_until_still", f"must be true or false, got {p['set_until_still']!r}")
+        if not p["set_until_still"]:
+            return None
+        import time
+
+        from knotsim.errors import SimulationError
+        from knotsim.runspec import build_run, check_run
+
+        hold_min = _positive(p, "set_hold", allow_zero=True)
+        hold_max = _positive(p, "set_hold_max")
+        window = _positive(p, "set_still_window")
+        rate_limit = _positive(p, "set_still_rate")
+        if hold_max < hold_min:
+            raise ConfigError("set_hold_max", f"must be at least set_hold = {hold_min:g} s, got {hold_max:g}")
+        wall0 = time.perf_counter()
+        proto, pctx, spec, _ = build({"set_hold": hold_max})
+        sim, cfg = build_run(check_run(spec))
+        pctx.model = cfg.model
+        proto.prepare(pctx)
+        t_hold = float(pctx.data.get("t_settle", 0.0)) + float(p["set_ramp"])  # the set hold begins
+        t_first = max(0.0, t_hold + hold_min - 2.0 * window)
+        times: list[float] = []
+        in_knot: list[float] = []
+        search = {"found": None, "rate": math.nan, "next": t_hold + hold_min}
+
+        def watch(s, res):
+            # the rope in the knot after every step (the run's own log has the same samples), its rate
+            # checked every STILL_CHECK s over the window the run's set_creep reads
+            t = float(s.state.time)
+            if t < t_first - 1e-9:
+                return
+            times.append(t)
+            in_knot.append(proto.record(pctx, s.state.q, t, {})["in_knot"])
+            if t < search["next"] - 1e-9:
+                return
+            search["next"] = t + STILL_CHECK
+            tt = np.asarray(times)
+            w = min(window, t - t_hold)
+            recent = tt >= t - w - 1e-9
+            before = (tt >= t - 2.0 * w - 1e-9) & (tt <= t - w + 1e-9)
+            if np.count_nonzero(recent) >= 3:
+                search["rate"] = float(np.polyfit(tt[recent], np.asarray(in_knot)[recent], 1)[0])
+                # still over this window and the one before it: not a turning point of a knot still
+                # working itself in and out
+                if abs(search["rate"]) <= rate_limit and np.count_nonzero(before) >= 3 and abs(
+                        float(np.polyfit(tt[before], np.asarray(in_knot)[before], 1)[0])) <= rate_limit:
+                    search["found"] = t - t_hold
+                    raise _SetIsStill
+
+        failure = None
+        try:
+            sim.advance(t_hold + hold_max, watch)
+        except _SetIsStill:
+            pass
+        except SimulationError as exc:
+            failure = f"{exc}"
+        found, rate = search["found"], search["rate"]
+        hold = found if found is not None else hold_max
+        record = {"set_hold": hold, "still": found is not None, "rate": rate, "set_hold_max": hold_max,
+                  "preliminary_wall_time": time.perf_counter() - wall0, "preliminary_failure": failure}
+        notes = []
+        if failure is not None:
+            notes.append(f"set_until_still: the preliminary run of the set failed ({failure}); the set is held "
+                         f"for set_hold_max = {hold_max:g} s")
+        elif found is None:
+            notes.append(f"set_until_still: the knot was still moving after set_hold_max = {hold_max:g} s of set "
+                         f"(the rope in it changing at {1e3 * rate:+.3g} mm/s); it is loaded before it was set")
+        return {"overrides": {"set_hold": hold}, "record": record, "notes": notes}
+
     def notes(self, ctx: RunContext, metrics: dict) -> list[str]:
         """A knot still moving when its set ended (``set_still`` false) was loaded before it was set:
         its loads are those of that moment of a set still under way."""
         if metrics.get("set_still") is False:
             return [f"the knot was still moving when the set ended: the rope in it changed at "
-                    f"{1e3 * metrics['set_creep']:+.3g} mm/s over the last fifth of the set hold (set_still_rate "
+                    f"{1e3 * metrics['set_creep']:+.3g} mm/s at the end of the set hold (set_still_rate "
                     f"= {1e3 * float(ctx.params['set_still_rate']):g} mm/s), so it was loaded before it was set; "
                     "give a longer set_hold"]
         return []
@@ -346,7 +437,8 @@ class KnotSecurity(TwoRopeBend):
         t_set = float(data.get("t_settle", 0.0)) + float(data.get("t_set", 0.0))
         t_all = np.asarray(log["time"], float)
         norm = ctx.radius**2 / ctx.EI
-        out: dict = {"load": p["load"], "set_tension": float(p["set_tension"]),
+        out: dict = {"load": p["load"], "set_tension": float(p["set_tension"]), "set_hold": float(p["set_hold"]),
+                     "set_until_still": data.get("adapted"),
                      "set_tension_norm": float(p["set_tension"]) * norm, "hold_tension": float(p["hold_tension"])}
         if "in_knot" in log.columns and t_all.size:
             ink = np.asarray(log["in_knot"], float)
@@ -354,7 +446,8 @@ class KnotSecurity(TwoRopeBend):
             out["in_knot_set"] = float(ink[min(i_set, ink.size - 1)])
             i_load = int(np.searchsorted(t_all, t0 - 1e-9))
             out["in_knot_load"] = float(ink[min(i_load, ink.size - 1)])
-            tail = (t_all >= t_set - 0.2 * float(p["set_hold"])) & (t_all <= t_set)
+            # over the last set_still_window of the set hold (the window set_until_still reads)
+            tail = (t_all >= t_set - min(float(p["set_still_window"]), float(p["set_hold"])) - 1e-9) & (t_all <= t_set)
             out["set_creep"] = (float(np.polyfit(t_all[tail], ink[tail], 1)[0])
                                 if np.count_nonzero(tail) >= 3 else None)
             out["set_still"] = (None if out["set_creep"] is None

@@ -293,11 +293,21 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     wall0 = time.perf_counter()
     proto, ctx, spec, notes = build_protocol_run(name, knot, geometry=geometry, overrides=overrides, quick=quick)
     cfg = check_run(spec)
+    if on_start is not None:
+        on_start(cfg)
+    # settings a preliminary run decides (knot-security's set_until_still: how long the set lasts);
+    # the run itself is then an ordinary one with those settings written down
+    adapted = proto.adapt(ctx, lambda extra: build_protocol_run(name, knot, geometry=geometry,
+                                                                overrides={**(overrides or {}), **extra}, quick=quick))
+    if adapted is not None:
+        proto, ctx, spec, notes = build_protocol_run(name, knot, geometry=geometry, quick=quick,
+                                                     overrides={**(overrides or {}), **adapted["overrides"]})
+        notes = [*notes, *adapted.get("notes", [])]
+        ctx.data["adapted"] = adapted.get("record", {})
+        cfg = check_run(spec)
     if save_config is not None:
         spec.save(save_config, header=f"knotsim pull: {spec.data['description']}; replay with "
                                       f"knotsim run {Path(save_config).name} -o OUT")
-    if on_start is not None:
-        on_start(cfg)
     sim, cfg = build_run(cfg)
     ctx.model = cfg.model
     proto.prepare(ctx)
