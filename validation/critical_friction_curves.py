@@ -113,6 +113,9 @@ def main() -> None:
         key, sep, value = item.partition("=")
         if not sep or not key:
             ap.error(f"--set takes KEY=VALUE, got {item!r}")
+        if value.lower() in ("true", "false"):
+            changes[key] = value.lower() == "true"
+            continue
         try:
             changes[key] = int(value) if value.lstrip("-").isdigit() else float(value)
         except ValueError:
