@@ -90,7 +90,7 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
                                     "that holds; none: the smooth law of contact.nu)"),
     "set_tension": ("N", "knot security: force on each of the three loaded ends while the knot is set"),
     "set_ramp": ("s", "knot security: time over which the set tension grows from 0"),
-    "set_hold": ("s", "knot security: time the set tension is held"),
+    "set_hold": ("s", "knot security: time the set tension is held (with set_until_still: at least)"),
     "hold_tension": ("N", "knot security: force left on the three ends after relaxing (at most set_tension)"),
     "relax_time": ("s", "knot security: time over which the ends go from the set to the hold tension"),
     "load": ("text", "knot security: 'ramp' (force at load_rate until run-away), 'hold' (hold_load for "
@@ -99,7 +99,15 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "hold_load": ("N", "knot security, hold: the load held"),
     "load_time": ("s", "knot security: length of the load stage (0: 20 s, hold 10 s after its rise)"),
     "slip_speed": ("m/s", "knot security, ramp: the loaded end faster than this for 0.5 s = a slow slip"),
-    "hold_drift": ("m", "knot security, hold: the loaded end moving further over the hold's second half = a slip"),
+    "hold_drift": ("m", "knot security, hold: more rope than this through the knot over the hold's second half "
+                        "(the loaded end out and the tails in) = a slip"),
+    "set_still_rate": ("m/s", "knot security: the rope in the knot changing faster than this at the end of the "
+                              "set = the knot was still moving, not set"),
+    "set_until_still": ("true/false", "knot security: hold the set until the knot stops moving (at least "
+                                      "set_hold, at most set_hold_max; found by a preliminary run of the set)"),
+    "set_hold_max": ("s", "knot security, set_until_still: the longest set hold"),
+    "set_still_window": ("s", "knot security: the window over which the rope in the knot's rate is read at the "
+                              "end of the set"),
     "pulse_load": ("N", "knot security, pulses: the load at the top of each triangular pulse"),
     "pulse_period": ("s", "knot security, pulses: duration of one pulse (rise and fall)"),
     "n_pulses": ("-", "knot security, pulses: number of pulses"),
@@ -120,7 +128,7 @@ PARAM_RANGES: dict[str, str] = {
     "slip_draw_in_rate": ">0", "slip_hold": ">=0", "set_tension": ">0", "set_ramp": ">0", "set_hold": ">=0",
     "hold_tension": ">=0", "relax_time": ">0", "load_rate": ">0", "hold_load": ">0", "load_time": ">=0",
     "slip_speed": ">0", "hold_drift": ">0", "pulse_load": ">0", "pulse_period": ">0", "n_pulses": "int>=1",
-    "spill_distance": ">0",
+    "spill_distance": ">0", "set_still_rate": ">0", "set_hold_max": ">0", "set_still_window": ">0",
 }
 _RANGE_TEXT = {">0": "a positive number", ">=0": "a non-negative number", "int>=1": "a positive integer",
                "int>=3": "an integer >= 3", "poisson": "a number in (-1, 0.5]"}
