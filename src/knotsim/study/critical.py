@@ -32,8 +32,8 @@ class CriticalFriction:
     held, ``mu_hold`` ``None`` when even the highest slipped); ``mu_c`` is their midpoint (``None``
     when the bracket is open) and ``width`` their distance; ``runs`` lists every run as
     ``{"mu", "holds", "outcome", "drift_pull", "drift_pull_late", "drift_tails", "drift_tails_late",
-    "drift_through_late", "set_creep", "set_still", "in_knot_set", "slip_load"}`` (m, m, m, m, m,
-    m/s, bool, m, N) in the order they were made.
+    "drift_through_late", "set_hold", "set_creep", "set_still", "in_knot_set", "slip_load"}`` (m, m,
+    m, m, m, s, m/s, bool, m, N) in the order they were made.
     """
 
     knot: str
@@ -119,7 +119,8 @@ def critical_friction(knot: str, load: float, *, mu_low: float = 0.05, mu_high: 
                          "drift_pull_late": m.get("drift_pull_late"), "drift_tails": m.get("drift_tails"),
                          "drift_tails_late": m.get("drift_tails_late"),
                          "drift_through_late": m.get("drift_through_late"),
-                         "set_creep": m.get("set_creep"), "set_still": m.get("set_still"),
+                         "set_hold": m.get("set_hold"), "set_creep": m.get("set_creep"),
+                         "set_still": m.get("set_still"),
                          "in_knot_set": m.get("in_knot_set"),
                          "slip_load": m.get("slip_load")})
         return ok
