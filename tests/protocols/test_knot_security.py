@@ -116,7 +116,7 @@ class _Ctx:
 
 
 def _log(t_slip=None, rate=0.002, hold=0.001, mode="ramp", hold_load=0.005, drift=0.0, tails_follow=1.0,
-         tails_in=0.0, one_rope=False):
+         tails_in=0.0, one_rope=False, capsize_at=None):
     """A knot-security log: the loaded end out at ``drift`` m/s from the load's start (``t_slip``: then
     running away); the two tails drawn in by ``tails_follow`` times the loaded end's displacement (rope
     passing through the knot) plus ``tails_in`` m/s (the knot drawing up); ``one_rope``: no tails."""
@@ -133,9 +133,15 @@ def _log(t_slip=None, rate=0.002, hold=0.001, mode="ramp", hold_load=0.005, drif
     tail = 0.3 - (tails_follow * u + tails_in * np.maximum(t_load, 0)) / 2
     if one_rope:
         tail = np.full(t.size, np.nan)
+    # each rope turns 1.5 pi in the set knot; ``capsize_at`` s into the load rope A is pulled straight
+    turn_a = np.where(t_load > capsize_at, 0.05 * np.pi, 1.5 * np.pi) if capsize_at is not None else np.full(
+        t.size, 1.5 * np.pi)
+    turn_b = np.full(t.size, 1.5 * np.pi)
+    if one_rope:
+        turn_a = turn_b = np.full(t.size, np.nan)
     return pd.DataFrame({"time": t, "F": f, "F_norm": f * 4e-6 / 2.26e-6, "u_pull": u, "tail_a": tail,
                          "tail_b": tail, "rope_gap": np.full(t.size, 4e-3 if not one_rope else np.nan),
-                         "in_knot": in_knot})
+                         "in_knot": in_knot, "turn_a": turn_a, "turn_b": turn_b})
 
 
 def test_ramp_metrics_find_the_slip_load():
@@ -187,6 +193,38 @@ def test_set_until_still_holds_the_set_until_the_knot_stops_moving():
     with pytest.raises(ConfigError, match="^set_hold_max:"):
         ks.run_protocol("knot-security", "reef_bend", quick=True,
                         overrides={**ov, "set_until_still": True, "set_hold": 2.0, "set_hold_max": 1.0})
+
+
+def test_turning_in_knot():
+    """A rope's turning between its entry points: 0 straight, pi round a half circle, and only the
+    part inside the knot counts."""
+    from knotsim.protocols.two_rope_bend import turning_in_knot
+
+    straight = np.column_stack([np.linspace(0, 1, 101), np.zeros(101), np.zeros(101)])
+    assert turning_in_knot(straight, 0.2, 0.2) == pytest.approx(0.0, abs=1e-12)
+    phi = np.linspace(-0.5 * np.pi, 0.5 * np.pi, 181)
+    arc = np.column_stack([np.cos(phi), np.sin(phi), np.zeros(phi.size)]) * 0.01
+    x = np.vstack([np.column_stack([np.linspace(-0.3, 0, 31)[:-1], np.full(30, -0.01), np.zeros(30)]), arc,
+                   np.column_stack([np.linspace(0, -0.3, 31)[1:], np.full(30, 0.01), np.zeros(30)])])
+    assert turning_in_knot(x, 0.25, 0.25) == pytest.approx(np.pi, rel=1e-3)  # the whole U-turn inside
+    assert turning_in_knot(x, 0.30 + 0.5 * np.pi * 0.01, 0.25) == pytest.approx(0.5 * np.pi, rel=0.02)  # half of it
+
+
+def test_a_rope_pulled_straight_through_the_knot_is_a_capsize():
+    """One rope straight through the knot while the other still goes round it, for 0.25 s: the knot
+    capsized (named so even if it then slips or comes apart); a set knot, or a one-rope knot, did not."""
+    m = KnotSecurity().metrics(_Ctx(), _log(capsize_at=3.0))
+    assert m["capsize_onset"]["time"] == pytest.approx(3.0, abs=0.02) and m["capsize_onset"]["rope"] == "a"
+    assert m["capsize_onset"]["force"] == pytest.approx(0.001 + 0.002 * 3.0, abs=1e-4)
+    assert m["turn_load"] == pytest.approx([1.5 * np.pi, 1.5 * np.pi])
+    assert KnotSecurity().verdict(_Ctx(), m) == "capsized"
+    held = KnotSecurity().metrics(_Ctx(), _log())
+    assert held["capsize_onset"] is None and KnotSecurity().verdict(_Ctx(), held) != "capsized"
+    brief = KnotSecurity().metrics(_Ctx(), _log(capsize_at=3.0).assign(
+        turn_a=lambda d: np.where((d.time > 4.5) & (d.time < 4.6), 0.05 * np.pi, 1.5 * np.pi)))
+    assert brief["capsize_onset"] is None  # straight for 0.1 s only
+    one = KnotSecurity().metrics(_Ctx(), _log(one_rope=True))
+    assert one["capsize_onset"] is None and one["turn_load"] is None
 
 
 def test_hold_that_drifts_has_slipped():

@@ -59,6 +59,8 @@ def test_hold_is_decided_by_motion():
     assert not holds(with_(drift_through_late=None), 1e-3)  # not measured
     assert holds(with_(drift_pull_late=-5e-3, drift_through_late=-5e-3), 1e-3)  # drawn in: settling
     assert not holds({**base, "outcome": "untied"}, 1e-3)
+    assert not holds({**base, "outcome": "capsized"}, 1e-3)
+    assert not holds(with_(capsize_onset={"time": 2.0, "force": 0.004, "rope": "a"}), 1e-3)
     assert not holds(with_(slip_onset={"time": 3.0, "criterion": "runaway"}), 1e-3)
     with pytest.raises(ConfigError, match="load_time"):
         holds(with_(decidable=False), 1e-3)

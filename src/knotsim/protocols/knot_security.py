@@ -94,11 +94,20 @@ from knotsim.protocols.two_rope_bend import (
     rope_gap,
     self_tail_lengths,
     tail_lengths,
+    turning_in_knot,
 )
 
 __all__ = ["KnotSecurity"]
 
 LOAD_MODES = ("ramp", "hold", "slide", "pulses")
+#: Capsizing (a bend turning into another form under load, e.g. a reef into two lark's heads round a
+#: rope pulled straight): one rope's turning in the knot below ``CAPSIZE_STRAIGHT`` (rad, nearly
+#: straight) while the other's is at least ``CAPSIZE_WRAPPED`` (still round it) and the ropes touch,
+#: for ``CAPSIZE_HOLD`` s. A set bend turns each rope by about 1.5 π in the knot.
+CAPSIZE_STRAIGHT = 0.25 * math.pi
+CAPSIZE_WRAPPED = 0.5 * math.pi
+CAPSIZE_HOLD = 0.25
+
 #: s between the checks of the rope in the knot's rate while ``set_until_still`` looks for the end of the set
 STILL_CHECK = 0.05
 
@@ -335,10 +344,15 @@ class KnotSecurity(TwoRopeBend):
         if len(ropes) == 1:
             outside = self_tail_lengths(ropes[0], ctx.radius, delta)
             return {"F": f, "F_norm": f * ctx.radius**2 / ctx.EI, "u_pull": u, "tail_a": math.nan,
-                    "tail_b": math.nan, "rope_gap": math.nan, "in_knot": max(total - float(sum(outside)), 0.0)}
-        outside = tail_lengths(ropes, ctx.data["all_ends"], ctx.radius, delta)  # standing ends, then the tails
+                    "tail_b": math.nan, "rope_gap": math.nan, "in_knot": max(total - float(sum(outside)), 0.0),
+                    "turn_a": math.nan, "turn_b": math.nan}
+        ends = ctx.data["all_ends"]  # standing ends, then the tails
+        outside = tail_lengths(ropes, ends, ctx.radius, delta)
+        by_end = {end: length for end, length in zip(ends, outside, strict=True)}
+        turn = [turning_in_knot(ropes[r], by_end[(r, 0)], by_end[(r, 1)]) for r in (ends[0][0], ends[1][0])]
         return {"F": f, "F_norm": f * ctx.radius**2 / ctx.EI, "u_pull": u, "tail_a": outside[2],
-                "tail_b": outside[3], "rope_gap": rope_gap(ropes), "in_knot": max(total - float(sum(outside)), 0.0)}
+                "tail_b": outside[3], "rope_gap": rope_gap(ropes), "in_knot": max(total - float(sum(outside)), 0.0),
+                "turn_a": turn[0], "turn_b": turn[1]}
 
     def adapt(self, ctx: RunContext, build) -> dict | None:
         """With ``set_until_still``: how long the set must be held for the knot to stop moving, found
@@ -420,6 +434,14 @@ class KnotSecurity(TwoRopeBend):
                          f"(the rope in it changing at {1e3 * rate:+.3g} mm/s); it is loaded before it was set")
         return {"overrides": {"set_hold": hold}, "record": record, "notes": notes}
 
+    def verdict(self, ctx: RunContext, metrics: dict) -> str | None:
+        """``capsized`` when a rope was pulled straight through the knot while the other still went
+        round it (``capsize_onset``; it names how the knot failed, also when it then came apart),
+        else as for ``two-rope-bend``."""
+        if metrics.get("capsize_onset") is not None:
+            return "capsized"
+        return super().verdict(ctx, metrics)
+
     def notes(self, ctx: RunContext, metrics: dict) -> list[str]:
         """A knot still moving when its set ended (``set_still`` false) was loaded before it was set:
         its loads are those of that moment of a set still under way."""
@@ -465,6 +487,7 @@ class KnotSecurity(TwoRopeBend):
         t_skip = float(p["transient"])
         after = t >= t_skip
         out["load_time"] = float(t[-1])
+        out.update(_capsize_metrics(ctx, log, t))
         if p["load"] == "pulses":
             out.update(_pulse_metrics(p, log, t))
             return out
@@ -541,6 +564,24 @@ class KnotSecurity(TwoRopeBend):
             out["hold_load"] = float(p["hold_load"])
             out["hold_load_norm"] = float(p["hold_load"]) * norm
         return out
+
+
+def _capsize_metrics(ctx: RunContext, log, t: np.ndarray) -> dict:
+    """``turn_load`` (rad, each rope's turning in the knot when the load began, rope A then B) and
+    ``capsize_onset`` (``{"time", "force", "rope"}``: when a rope was pulled straight through the knot
+    while the other still went round it, :data:`CAPSIZE_STRAIGHT`; ``None``: it never was) of a bend;
+    both ``None`` for a one-rope knot."""
+    if "turn_a" not in log.columns:
+        return {"turn_load": None, "capsize_onset": None}
+    ta, tb = np.asarray(log["turn_a"], float), np.asarray(log["turn_b"], float)
+    if not (np.all(np.isfinite(ta)) and np.all(np.isfinite(tb))):
+        return {"turn_load": None, "capsize_onset": None}
+    touching = np.asarray(log["rope_gap"], float) <= APART_RADII * ctx.radius
+    capsized = (np.minimum(ta, tb) < CAPSIZE_STRAIGHT) & (np.maximum(ta, tb) >= CAPSIZE_WRAPPED) & touching
+    k = sustained_onset(t, capsized, CAPSIZE_HOLD)
+    onset = (None if k is None else
+             {"time": float(t[k]), "force": float(np.asarray(log["F"], float)[k]), "rope": "a" if ta[k] < tb[k] else "b"})
+    return {"turn_load": [float(ta[0]), float(tb[0])], "capsize_onset": onset}
 
 
 def _pulse_metrics(p, log, t) -> dict:

@@ -301,7 +301,7 @@ def tail_draw_in(log: pd.DataFrame, column: str, kind: str = "decrease") -> floa
 #: Outcomes of a strength test, from the protocol's metrics (see :func:`knot_status`); ``"untied"``
 #: from the metrics when the topology cannot see it (the two ropes of a reef or thief bend, each
 #: closed on itself, are an unlink from the start: the protocol sees them come apart geometrically).
-VERDICTS = ("slipped", "loose", "undecided", "untied")
+VERDICTS = ("slipped", "loose", "undecided", "untied", "capsized")
 
 #: Ropelength (rope length / diameter) of the ideal tight knots (Pieranski 1998; Baranska et al.
 #: 2004): trefoil 16.37, figure-eight 21.04, 5_1 23.55, 5_2 24.68. A composite knot is taken as the
@@ -330,7 +330,8 @@ def knot_status(start_type: str | None, end_type: str | None, slipped: bool = Fa
     ``"untied"`` (ends as an unknot or unlink), ``"changed knot type"`` or ``"unknown"`` (a topology
     check failed) from the topology; else the protocol's ``verdict`` (``"slipped"``: the force
     dropped or the tails ran; ``"loose"``: the knot never tightened; ``"undecided"``: the run was
-    too short to tell) or ``"slipped"`` when ``slipped``; else ``"held"``."""
+    too short to tell; ``"capsized"``: the knot turned into another form, ``knot-security``) or
+    ``"slipped"`` when ``slipped``; else ``"held"``."""
     if start_type is None or end_type is None:
         return "unknown"
     if end_type != start_type:

@@ -179,6 +179,21 @@ def self_tail_lengths(x: np.ndarray, radius: float, delta: float) -> list[float]
 APART_RADII = 4.0
 
 
+def turning_in_knot(x: np.ndarray, outside_first: float, outside_last: float) -> float:
+    """Total turning angle (rad) of a rope inside the knot: the sum of the angles between successive
+    edges at the nodes whose arc length lies between ``outside_first`` (m, from the first node) and
+    the total length less ``outside_last`` (m, from the last node), e.g. the lengths of its two ends
+    outside the knot (:func:`tail_lengths`). A straight rope through the knot turns by about 0, a rope
+    that goes round another and back by π or more. ``x`` ``(N, 3)`` node positions (m)."""
+    e = np.diff(np.asarray(x, float), axis=0)
+    lengths = np.linalg.norm(e, axis=1)
+    t = e / lengths[:, None]
+    s = np.cumsum(lengths)[:-1]  # arc length of the interior nodes 1 .. N-2
+    inside = (s >= outside_first) & (s <= float(np.sum(lengths)) - outside_last)
+    angles = np.arccos(np.clip(np.einsum("ij,ij->i", t[1:], t[:-1]), -1.0, 1.0))
+    return float(np.sum(angles[inside]))
+
+
 def rope_gap(ropes: list[np.ndarray]) -> float:
     """Smallest distance (m) between a node of rope 0 and a node of rope 1 (``(N_k, 3)`` node
     positions, m): the centreline distance, ``2h`` when the ropes touch."""

@@ -3,7 +3,8 @@
 :func:`critical_friction` runs the ``knot-security`` protocol in its ``"hold"`` mode (the knot set,
 relaxed, then the standing end loaded by ``load`` N and held) at friction coefficients chosen by
 bisection, and decides each run from the motion of the rope, never from the force alone: a run
-*holds* when the loaded end never ran away, the ropes did not come apart and less than
+*holds* when the loaded end never ran away, the knot did not capsize, the ropes did not come apart
+and less than
 ``drift_limit`` (m) of rope passed through the knot over the second half of the hold (the protocol's
 own ``hold_drift`` rule on ``drift_through_late``: the smaller of the loaded end's outward drift and
 the tails' draw-in; the first half is the knot taking up the load; an end drawn in against the load
@@ -63,7 +64,8 @@ def holds(result: Any, drift_limit: float) -> bool:
     bend set at 10 mN moves about 3 mm there under 2 mN even at μ = 0.6. An end drawn in, against the
     load, is the knot still settling and holds; so are tails drawn in while the loaded end stays)."""
     m = result["metrics"]
-    if result["outcome"] in ("untied", "slipped") or m.get("slip_onset") is not None:
+    if (result["outcome"] in ("untied", "slipped", "capsized") or m.get("slip_onset") is not None
+            or m.get("capsize_onset") is not None):
         return False
     if not m.get("decidable", False):
         raise ConfigError("load_time", "the hold was too short to tell whether the knot holds; give a longer "
