@@ -27,26 +27,31 @@ def test_committed_study_reopens(study_dir):
     # every completed protocol case says which friction law ran: the surface reruns "surface",
     # the studies recorded before surface friction existed "centreline"
     done = (df["kind"] == "protocol") & (df["outcome"] == "completed")
-    assert set(df.loc[done, "friction_model"]) == {_study_friction_model(study_dir)}
+    assert set(df.loc[done, "friction_model"]) == _study_friction_models(study_dir)
 
 
-def _study_friction_model(study_dir: Path) -> str:
-    """The friction law a committed study ran with: its base's ``contact.friction_model`` when the
-    study file sets it; else ``"surface"`` for the surface reruns (``*_surface``, ``*_surface_checks``)
-    and the ``knot-security`` studies, which came after surface friction became the default; else
+def _study_friction_models(study_dir: Path) -> set[str]:
+    """The friction laws a committed study ran with: its base's ``contact.friction_model`` when the
+    study file sets it, else ``"surface"`` for the surface reruns (``*_surface``, ``*_surface_checks``)
+    and the ``knot-security`` studies, which came after surface friction became the default, else
     ``"centreline"``, the default when the older studies were recorded (their copies of the study
-    file predate the key)."""
+    file predate the key); with the laws its ``[[cases]]`` set (a study of both laws side by side),
+    in place of the base's when every case sets one."""
     import tomllib
 
     raw = tomllib.loads((study_dir / "study.toml").read_text())
     base = raw.get("base", {})
     over = base.get("overrides", {})
     model = over.get("contact.friction_model", over.get("contact", {}).get("friction_model"))
-    if model:
-        return model
-    if study_dir.name.endswith(("_surface", "_surface_checks")) or base.get("protocol") == "knot-security":
-        return "surface"
-    return "centreline"
+    if not model:
+        model = ("surface" if study_dir.name.endswith(("_surface", "_surface_checks"))
+                 or base.get("protocol") == "knot-security" else "centreline")
+    cases = raw.get("cases", [])
+    named = [c.get("overrides.contact.friction_model") for c in cases]
+    models = {m for m in named if m}
+    if not cases or any(m is None for m in named):
+        models.add(model)
+    return models
 
 
 def test_committed_study_report_is_rebuilt(tmp_path):
