@@ -69,9 +69,12 @@ criterion ``"drift"``: rope passing through the knot pays the loaded end out and
 by about as much. A loaded end drawn in against the load (the knot still settling), tails drawn in
 while the loaded end stays (the knot drawing up after its set tension was relaxed) and a loaded end
 let out while the tails stay (the knot changing shape) are reported, not slips;
-``sliding_resistance`` (N) and its norm (slide). Outcomes as for ``two-rope-bend``: ``untied``
-(the ropes apart and unlinked), ``slipped`` (the loaded end ran away), ``undecided`` (a load stage
-too short to tell), else held.
+``sliding_resistance`` (N) and its norm (slide); for bends ``turn_load`` (rad, each rope's turning
+in the knot when the load began, log columns ``turn_a``, ``turn_b``) and ``capsize_onset``. Outcomes:
+``capsized`` (a rope pulled straight through the knot while the other still goes round it,
+:data:`CAPSIZE_STRAIGHT`; named so also when the knot then slips or comes apart), then as for
+``two-rope-bend``: ``untied`` (the ropes apart and unlinked), ``slipped`` (the loaded end ran away
+or, holding, rope passed through), ``undecided`` (a load stage too short to tell), else held.
 """
 
 from __future__ import annotations
@@ -190,7 +193,6 @@ class KnotSecurity(TwoRopeBend):
         t_set_ramp = _positive(p, "set_ramp")
         t_set = t_set_ramp + _positive(p, "set_hold", allow_zero=True)
         t_relax = _positive(p, "relax_time")
-        _positive(p, "set_still_rate")
         t_set_force = _positive(p, "set_tension")
         t_hold = _positive(p, "hold_tension", allow_zero=True)
         if t_hold > t_set_force:
