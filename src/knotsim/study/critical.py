@@ -4,12 +4,11 @@
 relaxed, then the standing end loaded by ``load`` N and held) at friction coefficients chosen by
 bisection, and decides each run from the motion of the rope, never from the force alone: a run
 *holds* when the loaded end never ran away, the knot did not capsize, the ropes did not come apart
-and less than
-``drift_limit`` (m) of rope passed through the knot over the second half of the hold (the protocol's
-own ``hold_drift`` rule on ``drift_through_late``: the smaller of the loaded end's outward drift and
-the tails' draw-in; the first half is the knot taking up the load; an end drawn in against the load
-is a knot still settling, tails drawn in while the loaded end stays a knot drawing up). The answer is an interval ``[mu_slip, mu_hold]``: the
-largest μ tried that did not hold and the smallest that did, narrower than ``tol``. Monotonicity in
+and less than ``drift_limit`` (m) of rope passed through the knot over the second half of the hold
+(the protocol's own ``hold_drift`` rule on ``drift_through_late``: the smaller of the loaded end's
+outward drift and the tails' draw-in; the first half is the knot taking up the load; an end drawn in
+against the load is a knot still settling, tails drawn in while the loaded end stays a knot drawing
+up). The answer is an interval ``[mu_slip, mu_hold]``: the largest μ tried that did not hold and the smallest that did, narrower than ``tol``. Monotonicity in
 μ is assumed (more friction holds at least as well), and checked at the ends of the bracket.
 """
 
@@ -57,7 +56,8 @@ class CriticalFriction:
 
 
 def holds(result: Any, drift_limit: float) -> bool:
-    """Whether a ``knot-security`` hold run (its summary) held: no run-away, not untied, and less than
+    """Whether a ``knot-security`` hold run (its summary) held: no run-away, not capsized, not untied,
+    and less than
     ``drift_limit`` (m) of rope passed through the knot over the second half of the hold
     (``drift_through_late``: the smaller of the loaded end's outward drift and the tails' draw-in;
     the loaded end's drift for a one-rope knot. The first half is the knot taking up the load: a reef
