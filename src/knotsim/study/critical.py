@@ -57,8 +57,7 @@ class CriticalFriction:
 
 def holds(result: Any, drift_limit: float) -> bool:
     """Whether a ``knot-security`` hold run (its summary) held: no run-away, not capsized, not untied,
-    and less than
-    ``drift_limit`` (m) of rope passed through the knot over the second half of the hold
+    and less than ``drift_limit`` (m) of rope passed through the knot over the second half of the hold
     (``drift_through_late``: the smaller of the loaded end's outward drift and the tails' draw-in;
     the loaded end's drift for a one-rope knot. The first half is the knot taking up the load: a reef
     bend set at 10 mN moves about 3 mm there under 2 mN even at μ = 0.6. An end drawn in, against the
