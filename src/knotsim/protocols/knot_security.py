@@ -390,30 +390,33 @@ class KnotSecurity(TwoRopeBend):
         t_first = max(0.0, t_hold + hold_min - 2.0 * window)
         times: list[float] = []
         in_knot: list[float] = []
-        search = {"found": None, "rate": math.nan, "next": t_hold + hold_min}
+        found: float | None = None  # the hold found (s)
+        rate = math.nan  # the rope in the knot's last rate (m/s)
+        next_check = t_hold + hold_min  # s
 
         def watch(s, res):
             # the rope in the knot after every step (the run's own log has the same samples), its rate
             # checked every STILL_CHECK s over the window the run's set_creep reads
+            nonlocal found, rate, next_check
             t = float(s.state.time)
             if t < t_first - 1e-9:
                 return
             times.append(t)
             in_knot.append(proto.record(pctx, s.state.q, t, {})["in_knot"])
-            if t < search["next"] - 1e-9:
+            if t < next_check - 1e-9:
                 return
-            search["next"] = t + STILL_CHECK
+            next_check = t + STILL_CHECK
             tt = np.asarray(times)
             w = min(window, t - t_hold)
             recent = tt >= t - w - 1e-9
             before = (tt >= t - 2.0 * w - 1e-9) & (tt <= t - w + 1e-9)
             if np.count_nonzero(recent) >= 3:
-                search["rate"] = float(np.polyfit(tt[recent], np.asarray(in_knot)[recent], 1)[0])
+                rate = float(np.polyfit(tt[recent], np.asarray(in_knot)[recent], 1)[0])
                 # still over this window and the one before it: not a turning point of a knot still
                 # working itself in and out
-                if abs(search["rate"]) <= rate_limit and np.count_nonzero(before) >= 3 and abs(
+                if abs(rate) <= rate_limit and np.count_nonzero(before) >= 3 and abs(
                         float(np.polyfit(tt[before], np.asarray(in_knot)[before], 1)[0])) <= rate_limit:
-                    search["found"] = t - t_hold
+                    found = t - t_hold
                     raise _SetIsStill
 
         failure = None
@@ -423,7 +426,6 @@ class KnotSecurity(TwoRopeBend):
             pass
         except SimulationError as exc:
             failure = f"{exc}"
-        found, rate = search["found"], search["rate"]
         hold = found if found is not None else hold_max
         record = {"set_hold": hold, "still": found is not None, "rate": rate, "set_hold_max": hold_max,
                   "preliminary_wall_time": time.perf_counter() - wall0, "preliminary_failure": failure}
