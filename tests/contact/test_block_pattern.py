@@ -19,7 +19,7 @@ from knotsim.contact.assembly import (
     contact_evaluate_regularized,
     contact_evaluate_regularized_surface,
 )
-from knotsim.contact.model import BLOCK_BAND_FRACTION, Contact, ContactOptions
+from knotsim.contact.model import BLOCK_BAND_FRACTION, Contact, ContactOptions, _pair_memo
 from knotsim.rods import Model, RodSpec
 from knotsim.simulation import Simulation
 from knotsim.solver.state import initial_state
@@ -78,7 +78,7 @@ def test_same_jacobian_with_fewer_blocks(mu):
     kernel(q, st.q, 1e-3, ci.pair_dofs, ci.pair_d, ci.pair_mu, ci.options.delta,
            ci.options.nu, ci.k_c, np.zeros(m.n_dofs), True, every, np.arange(k),
            np.empty(k), np.empty((k, 12)), np.empty((k, 12)), ci.pair_eta, ci.pair_theta, ci.pair_h,
-           np.zeros((k, SURFACE_COLUMNS)), np.zeros((0, 3)), np.zeros(0), 0.0)
+           np.zeros((k, SURFACE_COLUMNS)), np.zeros((0, 3)), np.zeros(0), 0.0, *_pair_memo(0))
     every_dofs = np.concatenate([ci.pair_dofs, ci.pair_theta], axis=1) if mu > 0.0 else ci.pair_dofs
     # every pair left out has a zero block and is beyond the band
     out = ~ci._block_mask

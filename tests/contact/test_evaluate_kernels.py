@@ -7,6 +7,7 @@ import pytest
 from knotsim.contact.assembly import SURFACE_COLUMNS, contact_evaluate_exact, contact_evaluate_regularized
 from knotsim.contact.distance import edge_edge_beta_gradients
 from knotsim.contact.friction import friction_pair
+from knotsim.contact.model import _pair_memo
 from knotsim.contact.potential import contact_pair_energy
 from knotsim.contact.regularized_distance import regularized_beta_gradients
 
@@ -68,7 +69,7 @@ def test_kernel_matches_per_pair_reference(regularized):
     e, missing = kernel(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, True, blocks, slot,
                         np.empty(n_pairs), np.empty((n_pairs, 12)), np.empty((n_pairs, 12)), pair_eta,
                         np.zeros((n_pairs, 2), np.int64), np.zeros((n_pairs, 2)), np.zeros((n_pairs, SURFACE_COLUMNS)),
-                        np.zeros((0, 3)), np.zeros(0), 0.0)
+                        np.zeros((0, 3)), np.zeros(0), 0.0, *_pair_memo(0))
     r_ref, b_ref, e_ref = _reference(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, pair_eta)
     assert e_ref > 0.0  # some pairs are in range: the comparison is not vacuous
     assert e == pytest.approx(e_ref, rel=1e-12)

@@ -238,7 +238,8 @@ def test_one_pass_bending_twisting_equals_separate_terms(closed):
         hess = np.full((m.n_bend, 11, 11), np.nan)
         eb, et = bending_twisting_energy(q2, m.bend_dofs, m.bend_edges, el.tangents, el.lengths, el.m1, el.m2,
                                          el.ref_twist, m.bend_EI, m.twist_GJ, m.voronoi_rest, m.kappa_bar,
-                                         m.twist_bar, grad, hess, want, el.kappa, el.twist, True, True, False)
+                                         m.twist_bar, grad, hess, want, el.kappa, el.twist, np.empty((0, 8)),
+                                         np.empty((0, 2)), np.empty(0, bool), True, True, False)
         assert eb == pytest.approx(sep.energies["bending"], rel=1e-14)
         assert et == pytest.approx(sep.energies["twisting"], rel=1e-14)
         gs = np.zeros(m.n_dofs)

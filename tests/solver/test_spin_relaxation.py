@@ -17,7 +17,7 @@ from tests.contact.friction_records import random_friction_records
 from knotsim.contact.spin_minimiser import SpinFriction
 from knotsim.runspec import RunSpec, run
 from knotsim.solver.options import SolverOptions
-from knotsim.solver.spin_relaxation import relax_spins
+from knotsim.solver.spin_relaxation import joined_spins, relax_spins, relaxed_angles
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 DT = 1e-3
@@ -116,7 +116,7 @@ def test_compiled_minimiser_follows_the_reference_iteration(seed, slip):
     a, j, r, theta_dofs, sf, loc = synthetic_problem(seed, slip=slip)
     tol = 1e-10
     ref, ref_it = reference_relax(j, r, sf, loc, DT, tol)
-    out = relax_spins(j, r, theta_dofs, 200, [sf], DT, tol)
+    out = relax_spins(j, r, loc, sf, DT, tol)
     assert out.iterations == ref_it and ref_it >= 1
     # the two stop within the same gradient tolerance; the sums' round-off moves the last iterate
     np.testing.assert_allclose(out.dtheta, ref, rtol=0.0, atol=1e-6 * np.abs(ref).max())
@@ -127,8 +127,8 @@ def test_several_interactions_are_joined():
     half = sf.record.shape[0] // 2
     parts = [SpinFriction(sf.theta_dofs[:half], sf.record[:half], NU),
              SpinFriction(sf.theta_dofs[half:], sf.record[half:], NU)]
-    one = relax_spins(j, r, theta_dofs, 200, [sf], DT, 1e-10)
-    two = relax_spins(j, r, theta_dofs, 200, parts, DT, 1e-10)
+    one = relax_spins(j, r, loc, sf, DT, 1e-10)
+    two = relax_spins(j, r, loc, joined_spins(parts), DT, 1e-10)
     np.testing.assert_array_equal(one.dtheta, two.dtheta)
     assert one.iterations == two.iterations
 
@@ -140,7 +140,7 @@ def test_relaxation_finds_the_minimiser_of_the_angle_problem(seed):
     g0 = np.zeros(m)
     d0 = sf.terms(np.zeros(m), loc, DT, g0, np.zeros((loc.shape[0], 2, 2)))
     tol = 1e-12
-    out = relax_spins(j, r, theta_dofs, 200, [sf], DT, tol, max_iterations=100)
+    out = relax_spins(j, r, loc, sf, DT, tol, max_iterations=100)
     assert out.residual <= 1.0 and out.iterations >= 1
     _, grad = psi(out.dtheta, a, r, sf, loc, g0, d0)
     assert np.abs(grad).max() <= tol
@@ -152,8 +152,32 @@ def test_relaxation_finds_the_minimiser_of_the_angle_problem(seed):
 
 def test_relaxation_leaves_a_solved_problem_alone():
     a, j, r, theta_dofs, sf, loc = synthetic_problem(4)
-    out = relax_spins(j, np.zeros_like(r) + (r - r), theta_dofs, 200, [sf], DT, 1.0)
+    out = relax_spins(j, np.zeros_like(r) + (r - r), loc, sf, DT, 1.0)
     assert out.iterations == 0 and not out.dtheta.any()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_relaxed_angles_are_the_free_pair_angles_in_order(seed):
+    """The numbering of the relaxed angles against numpy: the free angles among the pairs', sorted and
+    each once, every pair's place among them (−1 for a held angle), the largest residual there."""
+    rng = np.random.default_rng(seed)
+    n = 60
+    pair_dofs = rng.integers(0, n, size=(25, 2))
+    free = rng.random(n) < 0.7
+    r = rng.normal(size=n)
+    sf = SpinFriction(pair_dofs, np.zeros((25, 15)), NU)
+    idx, loc, largest = relaxed_angles(sf, free, r)
+    ref = np.unique(pair_dofs.ravel())
+    ref = ref[free[ref]]
+    np.testing.assert_array_equal(idx, ref)
+    place = np.full(n, -1)
+    place[ref] = np.arange(ref.size)
+    np.testing.assert_array_equal(loc, place[pair_dofs])
+    assert largest == np.abs(r[ref]).max()
+    r[ref[0]] = np.nan
+    assert math.isnan(relaxed_angles(sf, free, r)[2])
+    idx, loc, largest = relaxed_angles(sf, np.zeros(n, bool), r)
+    assert idx.size == 0 and (loc == -1).all() and largest == 0.0
 
 
 def log_roll_run(relax: bool, friction_model: str = "surface", twist: bool = True, travel_time: float = 0.3,

@@ -1,5 +1,6 @@
 """Numba kernels of the per-step bookkeeping of :class:`knotsim.contact.model.Contact`: the gap
-statistics of the candidate pairs and whether two arrays hold the same numbers. Each replaces a
+statistics of the candidate pairs and the records of the pairs whose friction the spin relaxation
+sees. Each replaces a
 handful of numpy calls on small arrays (one dispatch instead of several, no temporaries) and gives
 exactly the numbers those calls gave.
 """
@@ -8,9 +9,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
-__all__ = ["gap_summary"]
+__all__ = ["gap_summary", "live_spin_records"]
 
 
 @njit(cache=True)
@@ -51,3 +53,31 @@ def gap_summary(delta, pair_d, pair_hmin, contact_range):
     if gap_nan:
         min_gap = math.nan
     return n, min_gap, worst, best
+
+
+@njit(cache=True)
+def live_spin_records(surface, pair_theta, first, size):
+    """The surface-friction records of the pairs that carry friction, with their angle unknowns.
+
+    ``surface`` (k, c) float64, the contact loop's ``pair_surface`` (its columns ``first`` to
+    ``first + size`` hold each pair's record, in which column 9 is ``F_n`` (N) and 10 the friction
+    coefficient; see :func:`knotsim.contact.surface_friction.surface_friction_pair`);
+    ``pair_theta`` (k, 2) int64, each pair's two angle unknowns. Returns ``(theta_dofs (m, 2) int64,
+    record (m, size) float64)`` of the ``m`` pairs with ``F_n × coefficient > 0``, in their order.
+    """
+    k = surface.shape[0]
+    m = 0
+    for i in range(k):
+        if surface[i, first + 9] * surface[i, first + 10] > 0.0:
+            m += 1
+    theta = np.empty((m, 2), dtype=np.int64)
+    record = np.empty((m, size))
+    j = 0
+    for i in range(k):
+        if surface[i, first + 9] * surface[i, first + 10] > 0.0:
+            theta[j, 0] = pair_theta[i, 0]
+            theta[j, 1] = pair_theta[i, 1]
+            for c in range(size):
+                record[j, c] = surface[i, first + c]
+            j += 1
+    return theta, record

@@ -22,6 +22,9 @@ from knotsim.contact.surface_friction import RECORD_SIZE, surface_friction_pair
 
 #: Columns of ``pair_surface``: slip and rolling speed, the two edge-angle torques, the pair's record.
 SURFACE_COLUMNS = 4 + RECORD_SIZE
+#: Columns of a pair's memo (``pair_memo`` of :func:`contact_evaluate`): kept, E, Δ, β_i, β_j, case,
+#: d, δ, η.
+MEMO_COLUMNS = 9
 
 
 @njit(cache=True)
@@ -53,49 +56,58 @@ def pair_dofs_from_edges(pairs, edge_dofs):
 @njit(cache=True)
 def contact_evaluate_regularized(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
                                  want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta,
-                                 pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance):
+                                 pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance,
+                                 pair_memo, pair_memo_p, pair_memo_grad, pair_memo_hess, pair_memo_beta):
     """:func:`contact_evaluate` with the regularized distance (every ``pair_eta > 0``), centre-line
     friction."""
     return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
                             blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, True, False,
-                            pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance)
+                            pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance,
+                            pair_memo, pair_memo_p, pair_memo_grad, pair_memo_hess, pair_memo_beta)
 
 
 @njit(cache=True)
 def contact_evaluate_exact(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
                            want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta,
-                           pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance):
+                           pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance,
+                           pair_memo, pair_memo_p, pair_memo_grad, pair_memo_hess, pair_memo_beta):
     """:func:`contact_evaluate` with the exact segment distance (``pair_eta`` unused), centre-line
     friction."""
     return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
                             blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, False, False,
-                            pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance)
+                            pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance,
+                            pair_memo, pair_memo_p, pair_memo_grad, pair_memo_hess, pair_memo_beta)
 
 
 @njit(cache=True)
 def contact_evaluate_regularized_surface(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
                                          want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta,
-                                         pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance):
+                                         pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance,
+                                         pair_memo, pair_memo_p, pair_memo_grad, pair_memo_hess, pair_memo_beta):
     """:func:`contact_evaluate` with the regularized distance and friction at the rods' surfaces."""
     return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
                             blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, True, True,
-                            pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance)
+                            pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance,
+                            pair_memo, pair_memo_p, pair_memo_grad, pair_memo_hess, pair_memo_beta)
 
 
 @njit(cache=True)
 def contact_evaluate_exact_surface(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual,
                                    want_jacobian, blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta,
-                                   pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance):
+                                   pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance,
+                                   pair_memo, pair_memo_p, pair_memo_grad, pair_memo_hess, pair_memo_beta):
     """:func:`contact_evaluate` with the exact segment distance and friction at the rods' surfaces."""
     return contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
                             blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, False, True,
-                            pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance)
+                            pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance,
+                            pair_memo, pair_memo_p, pair_memo_grad, pair_memo_hess, pair_memo_beta)
 
 
 @njit(inline="always", cache=True)
 def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, residual, want_jacobian,
                      blocks, block_slot, pair_delta, pair_fc, pair_ff, pair_eta, regularized, surface,
-                     pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance):
+                     pair_theta, pair_h, pair_surface, pair_xi0, pair_mu_limit, stick_distance,
+                     pair_memo, pair_memo_p, pair_memo_grad, pair_memo_hess, pair_memo_beta):
     """Contact and friction of every candidate pair at the Newton iterate ``q``.
 
     Called through :func:`contact_evaluate_regularized`, :func:`contact_evaluate_exact` and their
@@ -134,6 +146,15 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
         pair_mu_limit : (k,) float64 its limit coefficient (μ_s sticking, μ_k sliding), and
         stick_distance : δ_s (m) of the elastic-stick law (docs/physics.md §3.6), ``κ = μ/δ_s``; 0: the
         smooth law of ``nu`` (``pair_xi0``, ``pair_mu_limit`` unused). Surface friction only.
+    pair_memo (b, MEMO_COLUMNS), pair_memo_p (b, 12), pair_memo_grad (b, 12), pair_memo_hess (b, 12, 12),
+        pair_memo_beta (b, 2, 12) float64, one row per block (``b`` as ``blocks``; zero rows: no memo):
+        with surface friction, what a Jacobian evaluation computed of the distance and potential of
+        each pair with a block, kept for the next one. A pair whose coordinates (``pair_memo_p``),
+        contact distance, δ and η are those kept (as after the stepper's spin relaxation, which turns
+        edge angles only) takes its distance, contact ratios, the potential's gradient and Hessian and
+        the ratios' gradients from there instead of computing them again: the results are the same,
+        bit for bit. Columns of ``pair_memo``: kept (0: no, 1: yes, 2: with the ratios' gradients),
+        ``E``, ``Δ``, ``β_i``, ``β_j``, the distance's case, ``d``, δ, η.
 
     Returns
     -------
@@ -165,13 +186,60 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
     nb = blocks.shape[1]
     etot = 0.0
     missing = 0
+    memo = surface and want_jacobian and pair_memo.shape[0] == blocks.shape[0]
+    p_scratch = p
+    grad_scratch = grad
+    hess_scratch = hess
+    dbi_scratch = dbi
+    dbj_scratch = dbj
     for k in range(npair):
-        for m in range(12):
-            p[m] = q[pair_dofs[k, m]]
-        eta = pair_eta[k]
-        E, delta, bi, bj, case = pair_energy(p, pair_d[k], tol, grad, hess, eta, regularized, want_jacobian)
-        pair_delta[k] = delta
         slot = block_slot[k]
+        row = slot if memo else -1  # the pair's memo row: that of its block
+        if row >= 0:  # the pair's distance and potential are worked in (and kept in) its memo row
+            p = pair_memo_p[row]
+            grad = pair_memo_grad[row]
+            hess = pair_memo_hess[row]
+            dbi = pair_memo_beta[row, 0]
+            dbj = pair_memo_beta[row, 1]
+        else:
+            p = p_scratch
+            grad = grad_scratch
+            hess = hess_scratch
+            dbi = dbi_scratch
+            dbj = dbj_scratch
+        eta = pair_eta[k]
+        kept = 0.0
+        if row >= 0:
+            kept = pair_memo[row, 0]
+            if not (pair_memo[row, 6] == pair_d[k] and pair_memo[row, 7] == tol and pair_memo[row, 8] == eta):
+                kept = 0.0
+            for m in range(12):
+                v = q[pair_dofs[k, m]]
+                if p[m] != v:
+                    kept = 0.0
+                    p[m] = v
+        else:
+            for m in range(12):
+                p[m] = q[pair_dofs[k, m]]
+        if kept > 0.0:
+            E = pair_memo[row, 1]
+            delta = pair_memo[row, 2]
+            bi = pair_memo[row, 3]
+            bj = pair_memo[row, 4]
+            case = int(pair_memo[row, 5])
+        else:
+            E, delta, bi, bj, case = pair_energy(p, pair_d[k], tol, grad, hess, eta, regularized, want_jacobian)
+            if row >= 0:
+                pair_memo[row, 0] = 1.0
+                pair_memo[row, 1] = E
+                pair_memo[row, 2] = delta
+                pair_memo[row, 3] = bi
+                pair_memo[row, 4] = bj
+                pair_memo[row, 5] = case
+                pair_memo[row, 6] = pair_d[k]
+                pair_memo[row, 7] = tol
+                pair_memo[row, 8] = eta
+        pair_delta[k] = delta
         if surface:
             for m in range(SURFACE_COLUMNS):
                 pair_surface[k, m] = 0.0
@@ -200,10 +268,13 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
                 for m in range(12):
                     for n in range(12):
                         dfc[m, n] = -kc * hess[m, n]
-                if regularized:
-                    regularized_beta_gradients(p, eta, bi, bj, case, dbi, dbj)
-                else:
-                    edge_edge_beta_gradients(p, bi, bj, case, dbi, dbj)
+                if kept < 2.0:
+                    if regularized:
+                        regularized_beta_gradients(p, eta, bi, bj, case, dbi, dbj)
+                    else:
+                        edge_edge_beta_gradients(p, bi, bj, case, dbi, dbj)
+                    if row >= 0:
+                        pair_memo[row, 0] = 2.0
             if surface:
                 ta = pair_theta[k, 0]
                 tb = pair_theta[k, 1]
@@ -235,10 +306,10 @@ def contact_evaluate(q, q_prev, dt, pair_dofs, pair_d, pair_mu, tol, nu, kc, res
                 if want_jacobian and slot >= 0:
                     for m in range(14):
                         for n in range(14):
-                            blocks[slot, m, n] = -jsu[m, n]
-                    for m in range(12):
-                        for n in range(12):
-                            blocks[slot, m, n] += kc * hess[m, n]
+                            if m < 12 and n < 12:
+                                blocks[slot, m, n] = kc * hess[m, n] - jsu[m, n]
+                            else:
+                                blocks[slot, m, n] = -jsu[m, n]
             else:
                 friction_pair(p, pp, dt, mu, nu, fc, dfc, bi, bj, dbi, dbj, ffr, jfr, want_jacobian)
                 for m in range(12):

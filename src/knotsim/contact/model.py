@@ -49,8 +49,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from knotsim.contact import diagnostics
-from knotsim.contact._model_kernels import gap_summary
+from knotsim.contact._model_kernels import gap_summary, live_spin_records
 from knotsim.contact.assembly import (
+    MEMO_COLUMNS,
     SURFACE_COLUMNS,
     approach_forces,
     contact_evaluate_exact,
@@ -126,6 +127,14 @@ class _Eval:
 _NO_EVAL = _Eval()
 #: Kernel arguments of the smooth law (no spring history): ``pair_xi0``, ``pair_mu_limit``, ``stick_distance``.
 _SMOOTH_LAW = (np.zeros((0, 3)), np.zeros(0), 0.0)
+
+
+def _pair_memo(rows: int) -> tuple[np.ndarray, ...]:
+    """Empty memo arrays of the contact loop for ``rows`` blocks (``pair_memo`` … ``pair_memo_beta`` of
+    :func:`~knotsim.contact.assembly.contact_evaluate`; a cache of the pairs' distance and potential
+    from the last Jacobian evaluation, not run state: it never changes a result)."""
+    return (np.zeros((rows, MEMO_COLUMNS)), np.zeros((rows, 12)), np.zeros((rows, 12)), np.zeros((rows, 12, 12)),
+            np.zeros((rows, 2, 12)))
 
 
 class Contact:
@@ -205,6 +214,7 @@ class Contact:
         self.pair_mu_static = np.zeros(0)
         self.pair_hmin = np.zeros(0)
         self._blocks = np.zeros((0, self._block_width, self._block_width))
+        self._memo = _pair_memo(0)
         self._block_mask = np.zeros(0, bool)
         self._block_idx = np.zeros(0, np.int64)
         self._block_pair_dofs = np.zeros((0, self._block_width), np.int64)
@@ -350,6 +360,7 @@ class Contact:
         self._block_slot[self._block_idx] = np.arange(self._block_idx.shape[0])
         if self._blocks.shape[0] != self._block_idx.shape[0]:
             self._blocks = np.zeros((self._block_idx.shape[0], self._block_width, self._block_width))
+        self._memo = _pair_memo(self._block_idx.shape[0] if self.surface_friction else 0)
         self.pattern_version += 1
 
     def block_dofs(self) -> np.ndarray:
@@ -384,7 +395,7 @@ class Contact:
                 *(self.stick.kernel_args(self.memory, self.pair_mu, self.pair_mu_static) if self.stick is not None
                   else _SMOOTH_LAW))
         e, missing = kernel(q, q_prev, dt, *args, residual, bool(want_jacobian), self._blocks, self._block_slot,
-                            ev.delta, ev.fc, ev.ff, *tail)
+                            ev.delta, ev.fc, ev.ff, *tail, *self._memo)
         self._last = ev
         self._q_prev = q_prev
         self._dt = dt
@@ -395,7 +406,7 @@ class Contact:
                 band = self.options.delta + BLOCK_BAND_FRACTION * self.options.margin
                 self._set_blocks(self._block_mask | live | (ev.delta < self.pair_d + band))
                 kernel(q, q_prev, dt, *args, np.zeros_like(residual), True, self._blocks, self._block_slot,
-                       ev.delta, ev.fc, ev.ff, *tail)
+                       ev.delta, ev.fc, ev.ff, *tail, *self._memo)
             blocks = self._blocks  # the blocks of block_dofs(), in its order (valid until the next call)
         self.timers["narrow_phase"] += time.perf_counter() - t0
         return float(e), blocks
@@ -412,11 +423,10 @@ class Contact:
         ev = self._last
         if not self.surface_friction or ev.q is None or ev.surface.shape[0] == 0:
             return None
-        live = ev.surface[:, 13] * ev.surface[:, 14] > 0.0  # F_n × coefficient
-        if not live.any():
+        theta_dofs, record = live_spin_records(ev.surface, self.pair_theta, 4, RECORD_SIZE)
+        if record.shape[0] == 0:
             return None
-        return SpinFriction(self.pair_theta[live], np.ascontiguousarray(ev.surface[live, 4:4 + RECORD_SIZE]),
-                            self.options.nu)
+        return SpinFriction(theta_dofs, record, self.options.nu)
 
     def _evaluated_at(self, q) -> _Eval:
         ev = self._last

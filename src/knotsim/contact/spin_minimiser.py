@@ -160,7 +160,9 @@ class SpinFriction:
     def __init__(self, theta_dofs, record, nu):
         self.theta_dofs = theta_dofs
         self.record = record
-        self.nu = np.ascontiguousarray(np.broadcast_to(np.asarray(nu, dtype=np.float64), (record.shape[0],)))
+        nu = np.asarray(nu, dtype=np.float64)
+        self.nu = (np.full(record.shape[0], float(nu)) if nu.ndim == 0
+                   else np.ascontiguousarray(np.broadcast_to(nu, (record.shape[0],))))
 
     def terms(self, dtheta, loc, dt: float, grad_out, hess_out) -> float:
         """``Σ D`` (J) at the turn ``dtheta`` (rad, local numbering ``loc`` (k, 2) of the pairs' angles,

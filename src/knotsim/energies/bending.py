@@ -99,7 +99,7 @@ def _add_curvature_hessians(Hz, kap, dv, me, mf, te, tf, n0, n1, chi, t0, t1, tt
 @njit(cache=True)
 def bending_twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2, ref_twist, EI, GJ, voronoi,
                             kappa_bar, twist_bar, grad, hess, want_hessian, kappa_out, twist_out,
-                            bend=True, twist=True, accumulate=False):
+                            stencil_grad, stencil_energy, recompute, bend=True, twist=True, accumulate=False):
     """Bending and/or twisting energy of every stencil in one pass: ``(E_bend, E_twist)`` (J).
 
     Arguments as :func:`bending_energy` and :func:`~knotsim.energies.twisting.twisting_energy`
@@ -108,6 +108,14 @@ def bending_twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2,
     unselected term are not read and may be empty). Both terms share the stencil geometry, one
     gradient scatter and one ``T^T Hz T`` map of the summed edge-variable Hessians; the blocks
     are written into ``hess (nb, 11, 11)`` (added to it when ``accumulate``).
+
+    The stencils' own terms, kept for a later call (empty arrays: not kept): ``stencil_grad (nb, 8)``
+    receives each stencil's gradient in its edge variables ``(e, θ_e, f, θ_f)`` and
+    ``stencil_energy (nb, 2)`` its bending and twisting energy (J). ``recompute (nb,)`` bool (empty:
+    every stencil): the stencils evaluated; each other one adds the gradient and energies kept in
+    ``stencil_grad`` and ``stencil_energy``, and its Hessian block, curvatures and twist are left as
+    they are (a caller passes False only for a stencil whose unknowns and frames are those of the
+    call that kept them). The sums are then the same, bit for bit, as a full evaluation.
     """
     nb = bend_dofs.shape[0]
     g1 = np.zeros(8)
@@ -117,7 +125,18 @@ def bending_twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2,
     W = np.zeros((8, 11))
     e_bend = 0.0
     e_twist = 0.0
+    keep = stencil_grad.shape[0] > 0
+    every = recompute.shape[0] == 0
     for s in range(nb):
+        if not every and not recompute[s]:
+            for p in range(8):
+                gz[p] = stencil_grad[s, p]
+            e_bend += stencil_energy[s, 0]
+            e_twist += stencil_energy[s, 1]
+            scatter_gradient(gz, 1.0, bend_dofs[s], grad)
+            continue
+        eb_s = 0.0
+        et_s = 0.0
         e, f, t0, t1, n0, n1, chi, tt, kb = stencil_geometry(bend_edges, tangents, lengths, s)
         if want_hessian:
             for i in range(8):
@@ -139,7 +158,7 @@ def bending_twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2,
             dk1 = k1 - kappa_bar[s, 0]
             dk2 = k2 - kappa_bar[s, 1]
             cb = EI[s] / voronoi[s]
-            e_bend += 0.5 * cb * (dk1 * dk1 + dk2 * dk2)
+            eb_s = 0.5 * cb * (dk1 * dk1 + dk2 * dk2)
             # gradients of kappa1, kappa2 in edge variables (e, theta_e, f, theta_f)
             a = v3.cross(t1, d2t)
             b = v3.cross(t0, d2t)
@@ -176,7 +195,7 @@ def bending_twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2,
             twist_out[s] = mt
             dm = mt - twist_bar[s]
             ct = GJ[s] / voronoi[s]
-            e_twist += 0.5 * ct * dm * dm
+            et_s = 0.5 * ct * dm * dm
             for p in range(3):
                 g1[p] = 0.5 * kb[p] / n0
                 g1[4 + p] = 0.5 * kb[p] / n1
@@ -205,6 +224,15 @@ def bending_twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2,
                         Hz[4 + k, p] += v
                 v3.skew_add(Hz, 0, 4, s2 * 2.0 / chi, t0)
                 v3.skew_add(Hz, 4, 0, -s2 * 2.0 / chi, t0)
+        if bend:
+            e_bend += eb_s
+        if twist:
+            e_twist += et_s
+        if keep:
+            for p in range(8):
+                stencil_grad[s, p] = gz[p]
+            stencil_energy[s, 0] = eb_s
+            stencil_energy[s, 1] = et_s
         scatter_gradient(gz, 1.0, bend_dofs[s], grad)
         if want_hessian:
             hessian_to_stencil(Hz, 1.0, hess[s], W, accumulate)
@@ -217,5 +245,6 @@ def bending_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2, EI, voro
     """Bending only (see the module docstring): :func:`bending_twisting_energy` with ``twist=False``."""
     none = np.empty(0)
     eb, _ = bending_twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, m1, m2, none, EI, none, voronoi,
-                                    kappa_bar, none, grad, hess, want_hessian, kappa_out, none, True, False, False)
+                                    kappa_bar, none, grad, hess, want_hessian, kappa_out, none, np.empty((0, 8)),
+                                    np.empty((0, 2)), np.empty(0, dtype=np.bool_), True, False, False)
     return eb

@@ -30,5 +30,6 @@ def twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, ref_twist, GJ, 
     m = np.empty((0, 3))
     k = np.empty((0, 2))
     _, et = bending_twisting_energy(q, bend_dofs, bend_edges, tangents, lengths, m, m, ref_twist, v, GJ, voronoi,
-                                    k, twist_bar, grad, hess, want_hessian, k, twist_out, False, True, accumulate)
+                                    k, twist_bar, grad, hess, want_hessian, k, twist_out, np.empty((0, 8)), k,
+                                    np.empty(0, dtype=np.bool_), False, True, accumulate)
     return et

@@ -94,18 +94,51 @@ def reference_twist(d1, tangents, bend_edges, twist_prev, twist_out):
         twist_out[s] = ang + 2.0 * math.pi * k
 
 
+@njit(inline="always", cache=True)
+def material_frame(e, d1, tangents, theta, m1, m2):
+    """Material directors ``m1[e], m2[e]`` of edge ``e`` turned by ``theta`` (rad) from its reference
+    director ``d1[e]`` about its tangent."""
+    t = (tangents[e, 0], tangents[e, 1], tangents[e, 2])
+    a = (d1[e, 0], d1[e, 1], d1[e, 2])
+    b = v3.cross(t, a)
+    c = math.cos(theta)
+    s = math.sin(theta)
+    for k in range(3):
+        m1[e, k] = c * a[k] + s * b[k]
+        m2[e, k] = -s * a[k] + c * b[k]
+
+
 @njit(cache=True)
 def material_frames(d1, tangents, theta, m1, m2):
     """Material directors ``m1, m2`` ``(ne, 3)`` from reference directors and edge angles ``theta``."""
     for e in range(d1.shape[0]):
-        t = (tangents[e, 0], tangents[e, 1], tangents[e, 2])
-        a = (d1[e, 0], d1[e, 1], d1[e, 2])
-        b = v3.cross(t, a)
-        c = math.cos(theta[e])
-        s = math.sin(theta[e])
-        for k in range(3):
-            m1[e, k] = c * a[k] + s * b[k]
-            m2[e, k] = -s * a[k] + c * b[k]
+        material_frame(e, d1, tangents, theta[e], m1, m2)
+
+
+@njit(cache=True)
+def turned_material_frames(q, q_at, theta_mask, edge_theta_dof, bend_edges, d1, tangents, m1, m2, stencil_turned):
+    """The material frames of the edges turned since ``q_at``, when only edge angles changed.
+
+    ``q``, ``q_at`` (n_dofs,) unknowns now and at the evaluation the frames ``d1, tangents, m1, m2``
+    (ne, 3) belong to; ``theta_mask`` (n_dofs,) bool, the edge angles; ``edge_theta_dof`` (ne,),
+    ``bend_edges`` (nb, 2) int64. Returns ``False``, writing nothing, when a position differs between
+    ``q`` and ``q_at``. Otherwise rewrites ``m1, m2`` of every edge whose angle differs, marks in
+    ``stencil_turned`` (nb,) bool the stencils with such an edge, and returns ``True``.
+    """
+    for i in range(q.shape[0]):
+        if q[i] != q_at[i] and not theta_mask[i]:
+            return False
+    for s in range(bend_edges.shape[0]):
+        stencil_turned[s] = False
+    for e in range(edge_theta_dof.shape[0]):
+        d = edge_theta_dof[e]
+        if q[d] != q_at[d]:
+            material_frame(e, d1, tangents, q[d], m1, m2)
+    for s in range(bend_edges.shape[0]):
+        de = edge_theta_dof[bend_edges[s, 0]]
+        df = edge_theta_dof[bend_edges[s, 1]]
+        stencil_turned[s] = q[de] != q_at[de] or q[df] != q_at[df]
+    return True
 
 
 @njit(cache=True)
@@ -122,15 +155,7 @@ def update_frames(q, edge_dofs, edge_theta_dof, bend_edges, d1_old, t_old, twist
     transport_directors(d1_old, t_old, tangents, d1)
     reference_twist(d1, tangents, bend_edges, twist_prev, ref_twist)
     for e in range(d1.shape[0]):
-        t = (tangents[e, 0], tangents[e, 1], tangents[e, 2])
-        a = (d1[e, 0], d1[e, 1], d1[e, 2])
-        b = v3.cross(t, a)
-        th = q[edge_theta_dof[e]]
-        c = math.cos(th)
-        s = math.sin(th)
-        for k in range(3):
-            m1[e, k] = c * a[k] + s * b[k]
-            m2[e, k] = -s * a[k] + c * b[k]
+        material_frame(e, d1, tangents, q[edge_theta_dof[e]], m1, m2)
 
 
 def space_parallel_directors(tangents: np.ndarray, closed: bool, first: np.ndarray | None = None) -> np.ndarray:

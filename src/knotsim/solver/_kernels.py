@@ -105,3 +105,50 @@ def predict_positions(q, v, v_prev, ratio, dt, out):
     for i in range(q.shape[0]):
         vi = v[i] + (v[i] - v_prev[i]) * ratio
         out[i] = q[i] + dt * vi
+
+
+@njit(cache=True)
+def relaxed_angle_numbering(pair_angles, free, r):
+    """The unknowns the spin relaxation solves for, numbered: the free ones among the pairs' edge
+    angles.
+
+    Parameters
+    ----------
+    pair_angles : (k, 2) int64, the two angle unknowns of every surface-friction pair.
+    free : (n_dofs,) bool, the unknowns that are not prescribed.
+    r : (n_dofs,) float64, the residual (N m on angles).
+
+    Returns
+    -------
+    ``(idx, loc, largest)``: ``idx`` (m,) int64, the free angles in increasing order (each once);
+    ``loc`` (k, 2) int64, the place of each pair's angles in ``idx`` (−1: prescribed); ``largest``,
+    ``max |r[idx]|`` (0 when ``m`` is 0, NaN when an entry is NaN).
+    """
+    n = free.shape[0]
+    k = pair_angles.shape[0]
+    place = np.full(n, -1, dtype=np.int64)
+    for p in range(k):
+        for i in range(2):
+            d = pair_angles[p, i]
+            if free[d]:
+                place[d] = 0
+    m = 0
+    for d in range(n):
+        if place[d] == 0:
+            m += 1
+    idx = np.empty(m, dtype=np.int64)
+    j = 0
+    largest = 0.0
+    for d in range(n):
+        if place[d] == 0:
+            idx[j] = d
+            place[d] = j
+            a = abs(r[d])
+            if a > largest or a != a:  # a NaN stays
+                largest = a
+            j += 1
+    loc = np.empty((k, 2), dtype=np.int64)
+    for p in range(k):
+        for i in range(2):
+            loc[p, i] = place[pair_angles[p, i]]
+    return idx, loc, largest

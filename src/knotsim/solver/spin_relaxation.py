@@ -35,6 +35,8 @@ from typing import Protocol
 
 import numpy as np
 
+from knotsim.solver._kernels import relaxed_angle_numbering
+
 
 class SpinFrictionTerms(Protocol):
     """What an interaction hands over for the relaxation (see
@@ -63,24 +65,38 @@ class SpinRelaxation:
     residual: float
 
 
-def relax_spins(j_tt, r_t: np.ndarray, theta_dofs: np.ndarray, n_dofs: int, spins, dt: float, tol: float,
+def relaxed_angles(spin: SpinFrictionTerms, free: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """The angles a relaxation solves for: the free ones among the pairs' of ``spin``.
+
+    ``free`` (n_dofs,) bool, the unknowns not prescribed; ``r`` (n_dofs,) the residual (N m on
+    angles). Returns ``(idx, loc, largest)``: the relaxed angles' unknowns ``idx`` (m,) int64 in
+    increasing order, the place in ``idx`` of every pair's two angles ``loc`` (k, 2) int64 (−1:
+    prescribed, held), and ``max |r[idx]|`` (N m)."""
+    idx, loc, largest = relaxed_angle_numbering(np.ascontiguousarray(spin.theta_dofs, dtype=np.int64), free, r)
+    return idx, loc, float(largest)
+
+
+def relax_spins(j_tt, r_t: np.ndarray, loc: np.ndarray, spin: SpinFrictionTerms, dt: float, tol: float,
                 max_iterations: int = 20, max_cuts: int = 40) -> SpinRelaxation:
     """Solve the angle equations with the nodes held (module docstring).
 
     Parameters
     ----------
-    j_tt : (m, m) float64, the Jacobian's block of the relaxed angles ``theta_dofs`` (N m/rad).
+    j_tt : (m, m) float64, the Jacobian's block of the relaxed angles (N m/rad; their unknowns
+        ``idx`` of :func:`relaxed_angles`, in that order).
     r_t : (m,) float64, their residual (N m).
-    theta_dofs : (m,) int64, the relaxed angles' unknowns (free angles of edges in contact; every
-        other unknown is held).
-    n_dofs : number of unknowns of the model.
-    spins : sequence of :class:`SpinFrictionTerms` (each interaction's surface-friction pairs).
+    loc : (k, 2) int64, the place of every pair's two angles among the relaxed ones (−1: held; see
+        :func:`relaxed_angles`).
+    spin : :class:`SpinFrictionTerms`, the surface-friction pairs (of every interaction, joined).
     dt : time step (s).
     tol : target of the largest angle residual (N m).
     """
-    locmap = np.full(n_dofs, -1, dtype=np.int64)
-    locmap[theta_dofs] = np.arange(theta_dofs.shape[0])
-    spin = spins[0] if len(spins) == 1 else spins[0].joined(spins[1:])
-    dtheta = np.zeros(theta_dofs.shape[0])
-    it, residual = spin.minimise(j_tt, r_t, locmap[spin.theta_dofs], dt, tol, max_iterations, max_cuts, dtheta)
+    dtheta = np.zeros(r_t.shape[0])
+    it, residual = spin.minimise(j_tt, r_t, loc, dt, tol, max_iterations, max_cuts, dtheta)
     return SpinRelaxation(dtheta, it, residual)
+
+
+def joined_spins(spins) -> SpinFrictionTerms:
+    """One :class:`SpinFrictionTerms` holding the pairs of every one of ``spins`` (a non-empty
+    sequence, in its order)."""
+    return spins[0] if len(spins) == 1 else spins[0].joined(spins[1:])

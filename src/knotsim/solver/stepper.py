@@ -31,7 +31,7 @@ from knotsim.solver.diagnosis import largest_residual_at
 from knotsim.solver.linear import BandedSolver, LinearSolveError, SparseSolver
 from knotsim.solver.newton import newton_solve
 from knotsim.solver.options import LinearSolver, Predictor, SolverOptions  # noqa: F401 (re-exported)
-from knotsim.solver.spin_relaxation import relax_spins
+from knotsim.solver.spin_relaxation import joined_spins, relax_spins, relaxed_angles
 from knotsim.solver.state import JacobianMemory, PredictorMemory, State, StepMemory
 
 _EPS = float(np.finfo(float).eps)
@@ -171,12 +171,16 @@ class _StepSystem:
                               and any(inter.has_spin_friction for inter in stepper.interactions))
 
     # -- residual / Jacobian --------------------------------------------------------------
-    def residual(self, q: np.ndarray, want_jacobian: bool) -> np.ndarray:
+    def residual(self, q: np.ndarray, want_jacobian: bool, turned_only: bool = False) -> np.ndarray:
+        """The residual at ``q`` ``(n_dofs,)`` (prescribed unknowns zeroed); with ``want_jacobian`` the
+        Jacobian is assembled there. ``turned_only``: ``q`` differs from the last evaluation's point in
+        edge angles only (the elastic energy then evaluates again only what they change; see
+        :meth:`knotsim.energies.elastic.ElasticEnergy.evaluate`)."""
         s = self.s
         el = s.elastic
         t0 = time.perf_counter()
         s._frames_at = None
-        e_el = el.evaluate(q, self.source, want_jacobian)
+        e_el = el.evaluate(q, self.source, want_jacobian, turned_only)
         s._frames_at = (q.copy(), self.source)  # the elastic frames are those of q (see store_configuration)
         r_full = self._r_full
         r = np.empty_like(r_full)
@@ -234,15 +238,16 @@ class _StepSystem:
         spins = [f for f in (inter.spin_friction() for inter in s.interactions) if f is not None]
         if not spins:
             return None
-        idx = np.unique(np.concatenate([f.theta_dofs.ravel() for f in spins]))
-        idx = idx[self.free[idx]]
-        if not np.max(np.abs(r[idx]), initial=0.0) > tol * max(above, 1.0):
+        spin = joined_spins(spins)
+        idx, loc, largest = relaxed_angles(spin, self.free, r)
+        if not largest > tol * max(above, 1.0):
             return None
         if not jacobian_current:
             r = self.residual(q, True)
-            spins = [f for f in (inter.spin_friction() for inter in s.interactions) if f is not None]
+            spin = joined_spins([f for f in (inter.spin_friction() for inter in s.interactions) if f is not None])
+            idx, loc, _ = relaxed_angles(spin, self.free, r)
         t0 = time.perf_counter()
-        out = relax_spins(s.jacobian_block(idx), r[idx], idx, s.model.n_dofs, spins, self.dt, 0.5 * tol)
+        out = relax_spins(s.jacobian_block(idx), r[idx], loc, spin, self.dt, 0.5 * tol)
         s.spin_relaxations += 1
         s.spin_iterations += out.iterations
         s.timers["spin_relaxation"] += time.perf_counter() - t0
@@ -250,7 +255,7 @@ class _StepSystem:
             return None
         q_new = q.copy()
         q_new[idx] += out.dtheta
-        return q_new, self.residual(q_new, True)
+        return q_new, self.residual(q_new, True, turned_only=True)
 
     def step_norm(self, dq: np.ndarray) -> float:
         sp_, st = split_max_abs(dq, self.s.model.theta_mask)
