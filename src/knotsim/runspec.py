@@ -176,7 +176,8 @@ class RunOutcome:
     """How :func:`run_simulation` went: ``status`` (``"completed"`` or ``"failed at t = T s:
     reason"``), the :class:`~knotsim.errors.SimulationError` that stopped it (or ``None``), the
     simulation's per-step ``log``, the simulated time ``sim_time`` (s) and ``wall_time`` (s) of this
-    run, and the failed step attempts so far."""
+    run, the failed step attempts so far, and ``stopped``: why the run ended before its duration
+    (what the ``stop`` predicate of :func:`run_simulation` returned), or ``None``."""
 
     status: str
     error: SimulationError | None
@@ -184,6 +185,7 @@ class RunOutcome:
     sim_time: float
     wall_time: float
     failed_attempts: int
+    stopped: str | None = None
 
     @property
     def completed(self) -> bool:
@@ -204,12 +206,13 @@ class RunOutcome:
 
 def run_simulation(sim, duration: float, output_dir: str | os.PathLike | None = None, *,
                    output_interval: float | None = None, progress: bool | None = None,
-                   callback=None) -> RunOutcome:
+                   callback=None, stop=None) -> RunOutcome:
     """Run ``sim`` (a :class:`~knotsim.simulation.Simulation`) for ``duration`` s, writing its files
     to ``output_dir``; a :class:`~knotsim.errors.SimulationError` stops the run and is caught into
     the outcome (the files are written up to the last accepted step). The one place where a run is
     run, its failure caught and its cost summarised (:func:`run`, the protocols, ``knotsim run``,
-    study cases)."""
+    study cases). ``stop(sim)``, called after every accepted step, may end the run early by returning
+    why (:meth:`knotsim.simulation.Simulation.run`); the run still counts as completed."""
     import time
 
     t_start = float(sim.state.time)
@@ -217,11 +220,12 @@ def run_simulation(sim, duration: float, output_dir: str | os.PathLike | None = 
     status, error = "completed", None
     try:
         sim.run(duration, output_dir=output_dir, output_interval=output_interval, progress=progress,
-                callback=callback)
+                callback=callback, stop=stop)
     except SimulationError as exc:
         status, error = f"failed at t = {sim.state.time:.6g} s: {exc}", exc
     wall = time.perf_counter() - wall0
-    return RunOutcome(status, error, sim.log(), float(sim.state.time - t_start), wall, int(sim.n_failures))
+    return RunOutcome(status, error, sim.log(), float(sim.state.time - t_start), wall, int(sim.n_failures),
+                      sim.stopped if error is None else None)
 
 
 @dataclass

@@ -79,6 +79,9 @@ class Simulation:
         #: ``[(name, t_start, t_end), ...]`` (s): stages of the run description; each log row names
         #: the stage its step belongs to (column ``stage``).
         self.stages: list[tuple[str, float, float]] = list(stages)
+        #: why the last :meth:`run` or :meth:`advance` stopped before its end time (what its ``stop``
+        #: predicate returned), or ``None`` when it ran to the end
+        self.stopped: str | None = None
 
     @property
     def dt(self) -> float:
@@ -177,10 +180,17 @@ class Simulation:
                                 self.stages[-1][0])
         return row
 
-    def advance(self, t_end: float, callback: Callable[[Simulation, StepResult], None] | None = None) -> None:
-        """Step until ``state.time == t_end`` (s)."""
+    def advance(self, t_end: float, callback: Callable[[Simulation, StepResult], None] | None = None,
+                stop: Callable[[Simulation], str | None] | None = None) -> str | None:
+        """Step until ``state.time == t_end`` (s).
+
+        ``callback(sim, step_result)`` is called after every accepted step; then ``stop(sim)``, when
+        given: a text (why) ends the stepping there, before ``t_end`` (e.g. a protocol whose outcome
+        is decided). Returns that text, or ``None`` when the run reached ``t_end``; it is also kept in
+        :attr:`stopped`."""
         if not math.isfinite(t_end) or t_end < self.state.time:
             raise ConfigError("t_end", f"must be a finite time >= current time {self.state.time}, got {t_end}")
+        self.stopped = None
         eps = 1e-12 * max(1.0, abs(t_end))
         while self.state.time < t_end - eps:
             res = self._advance_one(t_end)
@@ -193,10 +203,21 @@ class Simulation:
                 self.rows[-1]["time"] = t_end
             if callback is not None:
                 callback(self, res)
+            if stop is not None and self.state.time < t_end - eps:
+                why = stop(self)
+                if why:
+                    self.stopped = str(why)
+                    break
+        return self.stopped
 
     def run(self, duration: float, output_dir=None, output_interval: float | None = None,
-            progress: bool | None = None, callback=None) -> pd.DataFrame:
+            progress: bool | None = None, callback=None,
+            stop: Callable[[Simulation], str | None] | None = None) -> pd.DataFrame:
         """Run for ``duration`` s; returns the per-step log as a DataFrame.
+
+        ``stop(sim)``, called after every accepted step, may end the run early by returning why (see
+        :meth:`advance`; the reason is kept in :attr:`stopped`); the run's files then end there, and
+        its ``run.toml`` gives the duration actually run, so that it replays to the same state.
 
         With ``output_dir`` writes ``trajectory.h5`` (frames every ``output_interval`` s, default
         every step), ``log.parquet`` and ``run.json`` there (see :mod:`knotsim.io.run_output`).
@@ -227,7 +248,10 @@ class Simulation:
                 if callback is not None:
                     callback(sim, res)
 
-            self.advance(t_end, cb)
+            if self.advance(t_end, cb, stop) is not None and out is not None and out.config is not None:
+                run_table = out.config.setdefault("run", {})
+                if float(run_table.get("duration", duration)) == float(duration):  # a fresh run of this description
+                    run_table["duration"] = float(self.state.time - t_start_run)
         except SimulationError as exc:
             outcome = f"failed: {exc}"
             raise

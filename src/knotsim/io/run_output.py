@@ -121,6 +121,7 @@ class RunOutput:
             "knotsim_version": __version__,
             "git_commit": self._commit,
             "outcome": outcome,
+            "stopped": getattr(self.sim, "stopped", None),  # why it ended before its duration (a decided protocol)
             "wall_time_s": _time.perf_counter() - self._wall0,
             "simulated_time_s": float(self.sim.state.time - self._t_start),
             "steps": int(len(self.sim.rows)),

@@ -22,14 +22,25 @@ import pandas as pd
 from knotsim.errors import ConfigError
 from knotsim.protocols.params import Params
 
-__all__ = ["SUMMARY_KEYS", "LoadingProtocol", "ProtocolResult", "RunContext", "end_group_nodes", "stage_duration",
-           "unit"]
+__all__ = ["SUMMARY_KEYS", "Decision", "LoadingProtocol", "ProtocolResult", "RunContext", "end_group_nodes",
+           "stage_duration", "unit"]
 
 
 #: The summary entries of a protocol run, in ``summary.json``'s order (``docs/protocols.md``).
-SUMMARY_KEYS = ("protocol", "knot", "knot_kind", "geometry", "parameters", "friction_model", "EI", "metrics",
-                "outcome", "knot_status", "run_status", "topology", "contact", "wall_time", "sim_time", "n_steps",
-                "newton_iterations", "failed_attempts", "notes", "knotsim_version", "out_dir")
+SUMMARY_KEYS = ("protocol", "knot", "knot_kind", "geometry", "parameters", "friction_model", "EI", "valid",
+                "warnings", "metrics", "outcome", "knot_status", "run_status", "timeline", "topology", "contact", "wall_time",
+                "sim_time", "n_steps", "newton_iterations", "failed_attempts", "notes", "knotsim_version", "out_dir")
+
+
+@dataclass(frozen=True)
+class Decision:
+    """A run's outcome decided before its end (:meth:`LoadingProtocol.decision`): ``time`` (s of run
+    time, when the evidence was complete), ``outcome`` (``"slipped"``, ``"capsized"``, ``"spilled"``,
+    ``"apart"``) and ``reason`` (one line for the user)."""
+
+    time: float
+    outcome: str
+    reason: str
 
 
 class ProtocolResult(dict):
@@ -118,6 +129,14 @@ class LoadingProtocol:
     quick: dict[str, Any] = {}
     #: Numbers of ropes the protocol loads (``None``: as many as its :attr:`default_knot` has).
     n_ropes: tuple[int, ...] | None = None
+    #: Scalar metrics that are times of events (s from the start of the measured load, as the metrics
+    #: are computed); the summary gives them on the run's time axis. Metric tables with a ``"time"``
+    #: entry (slip onsets, ...) are events too and need no listing.
+    event_time_keys: tuple[str, ...] = ()
+    #: Name of the protocol's own stage before the measured load (``ctx.data["t_pre"]``), if any.
+    pre_stage_name: str = "pre-stage"
+    #: Name of the measured stage.
+    load_stage_name: str = "pull"
 
     # -- hooks ---------------------------------------------------------------------------
     def setup(self, ctx: RunContext) -> None:
@@ -162,6 +181,14 @@ class LoadingProtocol:
         knot loaded before its set was complete (default: none)."""
         return []
 
+    def warnings(self, ctx: RunContext, metrics: dict) -> list[tuple[str, str]]:
+        """Ways in which this run is not a valid measurement by the protocol's own rules (e.g. a knot
+        loaded before it was set): ``[(flag, text), ...]``, the short ``flag`` appended to the outcome
+        (``"slipped; loaded before it was set"``), the ``text`` (one line: what, by how much, what to
+        change) listed first in the summary's ``warnings``; ``valid`` is false when any is given
+        (default: none)."""
+        return []
+
     def verdict(self, ctx: RunContext, metrics: dict) -> str | None:
         """``"slipped"``, ``"loose"`` (never tightened) or ``"undecided"`` (too short to tell) from
         the metrics, or ``None`` when the knot held (default: ``"slipped"`` when :meth:`slipped`)."""
@@ -175,6 +202,23 @@ class LoadingProtocol:
             return "slipped"
         if not metrics.get("decidable", False):
             return "undecided"
+        return None
+
+    def stages(self, ctx: RunContext, t_end: float) -> list[tuple[str, float, float]]:
+        """``[(name, start, end), ...]`` (s of run time) of the run's stages up to ``t_end``: settling
+        (``settle_time``), the protocol's pre-stage (:attr:`pre_stage_name`, ``ctx.data["t_pre"]``) and
+        the measured stage (:attr:`load_stage_name`). Stages of no length are left out."""
+        data = getattr(ctx, "data", {}) or {}
+        t_settle = float(data.get("t_settle", 0.0))
+        t_load = t_settle + float(data.get("t_pre", 0.0))
+        out = [("settle", 0.0, t_settle), (self.pre_stage_name, t_settle, t_load), (self.load_stage_name, t_load, t_end)]
+        return [(n, a, min(b, t_end)) for n, a, b in out if b > a and a < t_end]
+
+    def decision(self, ctx: RunContext, log: pd.DataFrame) -> Decision | None:
+        """Whether the run's outcome is already decided by ``log`` (the rows so far: ``time`` in s of
+        run time and the protocol's :meth:`record` columns): a :class:`Decision`, or ``None`` (the
+        default: the run goes on to its end). The pipeline asks during the run and, with the
+        ``stop_at_decision`` parameter, ends the run ``stop_margin`` s after the decision."""
         return None
 
     def topology_key(self, ctx: RunContext, topo: dict) -> str | None:

@@ -84,7 +84,7 @@ import math
 import numpy as np
 
 from knotsim.errors import ConfigError
-from knotsim.protocols.base import RunContext, end_group_nodes, unit
+from knotsim.protocols.base import Decision, RunContext, end_group_nodes, unit
 from knotsim.protocols.geometry import default_ends, parse_end
 from knotsim.protocols.metrics import moving_average, sustained_onset, window_mean
 from knotsim.protocols.timeline import measured_log, pull_start
@@ -113,6 +113,10 @@ CAPSIZE_HOLD = 0.25
 
 #: s between the checks of the rope in the knot's rate while ``set_until_still`` looks for the end of the set
 STILL_CHECK = 0.05
+#: s the loaded end must stay faster than ``runaway_speed`` (``slip_speed``) for a run-away (slow slip)
+SUSTAIN = 0.5
+#: the flag a knot loaded before it was set adds to the outcome
+NOT_SET = "loaded before it was set"
 
 
 class _SetIsStill(Exception):
@@ -171,11 +175,13 @@ class KnotSecurity(TwoRopeBend):
         "hold_drift": 0.001,   # m: a hold that let more rope through the knot over its second half slipped
         "set_still_rate": 5e-4,  # m/s: the rope in the knot changing faster than this at the end of the
                                  # set hold = the knot was still moving, not set (a quarter of slip_speed)
-        "set_until_still": False,  # hold the set until the knot stops moving (at least set_hold, at most
-                                   # set_hold_max), found by a preliminary run of the set stage
+        "set_until_still": True,  # hold the set until the knot stops moving (at least set_hold, at most
+                                  # set_hold_max), found by a preliminary run of the set stage
         "set_hold_max": 20.0,  # s (set_until_still)
         "set_still_window": 0.5,  # s over which the rope in the knot must change slower than set_still_rate
         "transient": 1.0,      # s at the start of the load stage left out of the slip detection
+        "stop_at_decision": True,  # end the run stop_margin s after its outcome is decided
+        "stop_margin": 1.0,    # s the run goes on after the decision (stop_at_decision)
         "output_interval": 0.1,
     }
     quick = {"n_nodes": 101, "dt": 5e-3, "set_ramp": 0.3, "set_hold": 0.5, "relax_time": 0.2, "load_time": 3.0,
@@ -446,15 +452,67 @@ class KnotSecurity(TwoRopeBend):
             return "capsized"
         return super().verdict(ctx, metrics)
 
-    def notes(self, ctx: RunContext, metrics: dict) -> list[str]:
+    def warnings(self, ctx: RunContext, metrics: dict) -> list[tuple[str, str]]:
         """A knot still moving when its set ended (``set_still`` false) was loaded before it was set:
-        its loads are those of that moment of a set still under way."""
+        its loads are those of that moment of a set still under way, not of the set knot."""
         if metrics.get("set_still") is False:
-            return [f"the knot was still moving when the set ended: the rope in it changed at "
-                    f"{1e3 * metrics['set_creep']:+.3g} mm/s at the end of the set hold (set_still_rate "
-                    f"= {1e3 * float(ctx.params['set_still_rate']):g} mm/s), so it was loaded before it was set; "
-                    "give a longer set_hold"]
+            how = ("give a longer set_hold_max" if ctx.params["set_until_still"]
+                   else "set set_until_still = true or give a longer set_hold")
+            return [(NOT_SET, f"NOT SET: the knot was still moving when the load began (the rope in it changing at "
+                              f"{1e3 * metrics['set_creep']:+.3g} mm/s at the end of the set, limit set_still_rate = "
+                              f"{1e3 * float(ctx.params['set_still_rate']):g} mm/s): it was loaded before it was set, "
+                              f"so this is not a measurement of the set knot; {how}")]
         return []
+
+    def stages(self, ctx: RunContext, t_end: float) -> list[tuple[str, float, float]]:
+        """Settling (``settle_time``), set (``set_ramp + set_hold``), relax (``relax_time``) and load."""
+        data = ctx.data
+        ts = float(data.get("t_settle", 0.0))
+        t_set, t_pre = ts + float(data["t_set"]), ts + float(data["t_pre"])
+        out = [("settle", 0.0, ts), ("set", ts, t_set), ("relax", t_set, t_pre), ("load", t_pre, t_end)]
+        return [(n, a, min(b, t_end)) for n, a, b in out if b > a and a < t_end]
+
+    def decision(self, ctx: RunContext, log) -> Decision | None:
+        """The earliest of: the loaded end running away (faster than ``runaway_speed`` for
+        :data:`SUSTAIN` s after the ``transient``: slipped; decided once it has lasted that long), the
+        ropes of a bend apart (``rope_gap`` beyond :data:`APART_RADII` radii), and, in the ``hold``,
+        ``slide`` and ``pulses`` modes, a capsize (decided after :data:`CAPSIZE_HOLD` s) and a spill
+        (at the end of the pulse after which the knot is out by ``spill_distance``). A ramp measures
+        the run-away load, so a capsize alone does not end it. Times in s of run time."""
+        p = ctx.params
+        t0 = pull_start(ctx)
+        m = measured_log(ctx, log)
+        if len(m) < 3:
+            return None
+        t = np.asarray(m["time"], float)
+        f = np.asarray(m["F"], float)
+        found: list[Decision] = []
+        if p["load"] != "pulses":
+            k, _ = _slip_onsets(p, m, t)
+            if k is not None:
+                found.append(Decision(t0 + float(t[k]) + SUSTAIN, "slipped",
+                                      f"the loaded end ran away from F = {1e3 * f[k]:.3g} mN (faster than "
+                                      f"runaway_speed = {float(p['runaway_speed']):g} m/s for {SUSTAIN:g} s)"))
+        if "rope_gap" in m.columns:
+            gap = np.asarray(m["rope_gap"], float)
+            apart = np.flatnonzero(np.isfinite(gap) & (gap > APART_RADII * ctx.radius))
+            if apart.size:
+                i = int(apart[0])
+                found.append(Decision(t0 + float(t[i]), "apart", f"the ropes came apart (gap {1e3 * gap[i]:.3g} mm)"))
+        if p["load"] != "ramp":
+            cap = _capsize_metrics(ctx, m, t)["capsize_onset"]
+            if cap is not None:
+                found.append(Decision(t0 + cap["time"] + CAPSIZE_HOLD, "capsized",
+                                      f"rope {cap['rope']} was pulled straight through the knot at F = "
+                                      f"{1e3 * cap['force']:.3g} mN"))
+        if p["load"] == "pulses":
+            spill = _pulse_metrics(p, m, t)
+            if spill["cycles_to_spill"] is not None:
+                n = int(spill["cycles_to_spill"])
+                found.append(Decision(t0 + n * float(p["pulse_period"]), "spilled",
+                                      f"the loaded end was out by more than spill_distance = "
+                                      f"{1e3 * float(p['spill_distance']):g} mm after pulse {n}"))
+        return min(found, key=lambda d: d.time) if found else None
 
     def metrics(self, ctx: RunContext, log) -> dict:
         p = ctx.params
@@ -502,13 +560,11 @@ class KnotSecurity(TwoRopeBend):
             out["slip_onset"] = None
             out["decidable"] = bool(t[-1] > t_skip)
             return out
-        u = moving_average(log, "u_pull", 0.5)
-        speed = np.gradient(u, t) if len(t) > 2 else np.zeros_like(u)
-        k = sustained_onset(t, after & (speed > float(p["runaway_speed"])), 0.5)
+        k, ks = _slip_onsets(p, log, t)
+        speed = _pull_speed(log, t)
         f = np.asarray(log["F"], float)
         out["slip_onset"] = (None if k is None else
                              {"time": float(t[k]), "force": float(f[k]), "criterion": "runaway"})
-        ks = sustained_onset(t, after & (speed > float(p["slip_speed"])), 0.5)
         out["slow_slip_onset"] = (None if ks is None else
                                   {"time": float(t[ks]), "force": float(f[ks]), "criterion": "slip_speed"})
         out["slow_slip_during_transient"] = bool(ks is not None and ks == int(np.argmax(after))
@@ -568,6 +624,23 @@ class KnotSecurity(TwoRopeBend):
             out["hold_load"] = float(p["hold_load"])
             out["hold_load_norm"] = float(p["hold_load"]) * norm
         return out
+
+
+def _pull_speed(log, t: np.ndarray) -> np.ndarray:
+    """The loaded end's speed (m/s) along the load, from its displacement averaged over 0.5 s."""
+    u = moving_average(log, "u_pull", 0.5)
+    return np.gradient(u, t) if len(t) > 2 else np.zeros_like(u)
+
+
+def _slip_onsets(p, log, t: np.ndarray) -> tuple[int | None, int | None]:
+    """Rows of the load stage's log (``t`` s since the load began) where the loaded end began to run
+    away (faster than ``runaway_speed``) and to slip slowly (faster than ``slip_speed``) for
+    :data:`SUSTAIN` s after the ``transient``; ``None`` where it did not."""
+    after = t >= float(p["transient"])
+    speed = _pull_speed(log, t)
+    k = sustained_onset(t, after & (speed > float(p["runaway_speed"])), SUSTAIN)
+    ks = sustained_onset(t, after & (speed > float(p["slip_speed"])), SUSTAIN)
+    return k, ks
 
 
 def _capsize_metrics(ctx: RunContext, log, t: np.ndarray) -> dict:

@@ -106,6 +106,9 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "set_until_still": ("true/false", "knot security: hold the set until the knot stops moving (at least "
                                       "set_hold, at most set_hold_max; found by a preliminary run of the set)"),
     "set_hold_max": ("s", "knot security, set_until_still: the longest set hold"),
+    "stop_at_decision": ("true/false", "knot security: end the run stop_margin s after its outcome is decided (the "
+                                       "loaded end ran away, the ropes came apart, capsized, spilled)"),
+    "stop_margin": ("s", "knot security: simulated time the run goes on after its decision (stop_at_decision)"),
     "set_still_window": ("s", "knot security: the window over which the rope in the knot's rate is read at the "
                               "end of the set"),
     "pulse_load": ("N", "knot security, pulses: the load at the top of each triangular pulse"),
@@ -129,6 +132,7 @@ PARAM_RANGES: dict[str, str] = {
     "hold_tension": ">=0", "relax_time": ">0", "load_rate": ">0", "hold_load": ">0", "load_time": ">=0",
     "slip_speed": ">0", "hold_drift": ">0", "pulse_load": ">0", "pulse_period": ">0", "n_pulses": "int>=1",
     "spill_distance": ">0", "set_still_rate": ">0", "set_hold_max": ">0", "set_still_window": ">0",
+    "stop_margin": ">=0",
 }
 _RANGE_TEXT = {">0": "a positive number", ">=0": "a non-negative number", "int>=1": "a positive integer",
                "int>=3": "an integer >= 3", "poisson": "a number in (-1, 0.5]"}

@@ -14,10 +14,23 @@ found by name in :mod:`knotsim.protocols.registry`). :func:`run_protocol` is the
 5. run it through :func:`knotsim.runspec.build_run` (files ``trajectory.h5``, ``log.parquet``,
    ``run.json``, ``run.toml``, ``checkpoint.npz`` in ``out_dir``), adding the protocol's quantities
    to every log row; a failure of the solver is recorded in the summary (``run_status``), not raised;
+   While it runs, a protocol that can decide its outcome early (:meth:`LoadingProtocol.decision
+   <knotsim.protocols.base.LoadingProtocol.decision>`: the knot ran away, came apart, capsized,
+   spilled) is asked every :data:`DECISION_CHECK` s of the load; with ``stop_at_decision`` (where
+   the protocol has it) the run ends ``stop_margin`` s after the decision;
 6. identify the knot type at the end; a change is reported in ``outcome`` (``"untied"``,
    ``"changed knot type (a -> b)"``); knots outside the table (``"unknown"``) are compared by their
    Alexander polynomial and determinant; a failed topology check is recorded, not raised;
-7. compute the metrics and write ``summary.json`` (when ``out_dir`` is given).
+7. compute the metrics and write ``summary.json`` (when ``out_dir`` is given). Every event time in
+   the summary is on the log's ``time`` axis (s of run time): the metrics' event tables (``{"time",
+   "force", ...}``, each with ``load_stage_time``, s since the measured load began) and the
+   protocol's :attr:`~knotsim.protocols.base.LoadingProtocol.event_time_keys`, and ``timeline``:
+   the stages (``[{"name", "start", "end"}]``), the events (``[{"name", "label", "time",
+   "force"}]``: the set's end, slip onsets, capsize, the decision), ``decision`` (``{"time",
+   "outcome", "reason"}`` or ``None``) and ``stopped`` (``{"time", "reason"}`` or ``None``). A
+   measurement outside the protocol's own validity rule (e.g. a knot loaded before it was set) is
+   named in ``warnings``, flags the ``outcome`` (``"slipped; loaded before it was set"``) and sets
+   ``valid`` to false.
 
 Units: SI throughout (m, s, N, Pa, kg/m^3, Pa s).
 """
@@ -35,11 +48,143 @@ import pandas as pd
 from knotsim._util.jsonio import json_safe, write_json
 from knotsim.contact.options import ContactOptions
 from knotsim.errors import ConfigError
-from knotsim.protocols.base import LoadingProtocol, ProtocolResult, RunContext
+from knotsim.protocols.base import Decision, LoadingProtocol, ProtocolResult, RunContext
 from knotsim.protocols.params import COMMON_DEFAULTS, Params, resolve_params
-from knotsim.protocols.timeline import apply_settle, merge_settle_reactions
+from knotsim.protocols.timeline import apply_settle, merge_settle_reactions, pull_start
 
-__all__ = ["build_protocol_run", "contact_stats", "run_protocol", "topology_keys"]
+__all__ = ["DECISION_CHECK", "build_protocol_run", "contact_stats", "on_run_axis", "run_protocol", "timeline",
+           "topology_keys"]
+
+#: s of simulated time between two questions to the protocol whether its outcome is decided
+DECISION_CHECK = 0.05
+
+#: labels of the metric events on the figure and in ``timeline`` (by metric name, then by criterion)
+EVENT_LABELS = {"slow_slip_onset": "slow slip", "capsize_onset": "capsize", "force_drop_onset": "force drop",
+                "force_drop": "force drop", "slip_onset": "slip"}
+CRITERION_LABELS = {"runaway": "run-away", "drift": "rope through (hold)", "spill": "spilled",
+                    "tail draw-in": "tails drawn in"}
+
+
+def on_run_axis(metrics: dict[str, Any], t0: float, event_keys: tuple[str, ...] = ()) -> dict[str, Any]:
+    """``metrics`` with every event time moved from the measured load's clock (s since it began,
+    as the protocols compute them) to the run's (the log's ``time``): each table with a ``"time"``
+    (and ``"detected_at"``) gets ``t0`` added and keeps the load's clock as ``"load_stage_time"``;
+    the scalar ``event_keys`` get ``t0`` added."""
+    out: dict[str, Any] = {}
+    for key, val in metrics.items():
+        if isinstance(val, dict) and isinstance(val.get("time"), int | float) and not isinstance(val["time"], bool):
+            ev = dict(val)
+            ev["load_stage_time"] = float(val["time"])
+            ev["time"] = float(val["time"]) + t0
+            if isinstance(val.get("detected_at"), int | float):
+                ev["detected_at"] = float(val["detected_at"]) + t0
+            out[key] = ev
+        elif key in event_keys and isinstance(val, int | float) and not isinstance(val, bool) and math.isfinite(val):
+            out[key] = float(val) + t0
+        else:
+            out[key] = val
+    return out
+
+
+def _force_at(log: pd.DataFrame, t: float) -> float | None:
+    if "F" not in log.columns or not len(log):
+        return None
+    f = np.asarray(log["F"], float)
+    tt = np.asarray(log["time"], float)
+    i = int(np.clip(np.searchsorted(tt, t - 1e-9), 0, len(tt) - 1))
+    if not np.isfinite(f[i]):  # no force logged then (e.g. the set stage of knot-security)
+        return None
+    ok = np.isfinite(f)
+    v = float(np.interp(t, tt[ok], f[ok]))
+    return v if math.isfinite(v) else None
+
+
+def timeline(proto: LoadingProtocol, ctx: RunContext, metrics: dict[str, Any], log: pd.DataFrame,
+             decision: Decision | None, stopped: str | None) -> dict[str, Any]:
+    """The run's stages and events on the log's time axis (s), from its metrics already on that axis
+    (:func:`on_run_axis`), its ``decision`` and why it ``stopped`` early (module docstring, item 7)."""
+    t_end = float(log["time"].iloc[-1]) if len(log) else 0.0
+    stages = [{"name": n, "start": a, "end": b} for n, a, b in proto.stages(ctx, t_end)]
+    set_tension = ctx.params.values.get("set_tension")  # on the set ends when the set ends (knot-security)
+    events: list[dict[str, Any]] = [{"name": "set_end", "label": "set knot", "time": st["end"],
+                                     "force": float(set_tension) if isinstance(set_tension, int | float) else None}
+                                    for st in stages if st["name"] == "set" and st["end"] < t_end + 1e-9]
+    for key, val in metrics.items():
+        if isinstance(val, dict) and isinstance(val.get("time"), int | float):
+            label = EVENT_LABELS.get(key, key.replace("_", " "))
+            if key == "slip_onset":
+                label = CRITERION_LABELS.get(str(val.get("criterion")), label)
+            force = val.get("force")
+            force = float(force) if isinstance(force, int | float) and math.isfinite(force) else None
+            if force is None or "F" not in log.columns:
+                force = _force_at(log, float(val["time"]))
+            events.append({"name": key, "label": label, "time": float(val["time"]), "force": force})
+        elif key in proto.event_time_keys and isinstance(val, int | float) and math.isfinite(val):
+            events.append({"name": key.removesuffix("_time"), "label": key.removesuffix("_time").replace("_", " "),
+                           "time": float(val), "force": _force_at(log, float(val))})
+    dec = None
+    if decision is not None:
+        dec = {"time": decision.time, "outcome": decision.outcome, "reason": decision.reason}
+        events.append({"name": "decision", "label": f"decided: {decision.outcome}", "time": decision.time,
+                       "force": _force_at(log, decision.time)})
+    stop = None
+    if stopped is not None:
+        stop = {"time": t_end, "reason": stopped}
+        events.append({"name": "stop", "label": "run stopped", "time": t_end, "force": _force_at(log, t_end)})
+    events.sort(key=lambda e: e["time"])
+    return {"stages": stages, "events": events, "decision": dec, "stopped": stop}
+
+
+def _stop_rule(p: Params) -> tuple[bool, float]:
+    """``(stop_at_decision, stop_margin)`` of a run (false for protocols without them)."""
+    on = p.values.get("stop_at_decision", False)
+    if not isinstance(on, bool):
+        raise ConfigError("stop_at_decision", f"must be true or false, got {on!r}")
+    margin = p.values.get("stop_margin", 1.0)
+    if not (isinstance(margin, int | float) and not isinstance(margin, bool) and math.isfinite(margin) and margin >= 0):
+        raise ConfigError("stop_margin", f"must be a time >= 0 in s, got {margin!r}")
+    return on, float(margin)
+
+
+class _DecisionWatch:
+    """Asks the protocol every :data:`DECISION_CHECK` s of the load whether its outcome is decided
+    (from the protocol's own log columns, collected as the run goes), and stops the run ``margin`` s
+    after the decision when ``stop_on``."""
+
+    def __init__(self, proto: LoadingProtocol, ctx: RunContext, stop_on: bool, margin: float):
+        self.proto, self.ctx, self.stop_on, self.margin = proto, ctx, stop_on, margin
+        self.columns: dict[str, list] = {"time": []}
+        self.decision: Decision | None = None
+        self.next_check = pull_start(ctx)
+        self.active = type(proto).decision is not LoadingProtocol.decision
+
+    def add(self, t: float, row: dict) -> None:
+        if not self.active:
+            return
+        cols = self.columns
+        n = len(cols["time"])
+        if set(row) != set(cols) - {"time"} and n:
+            self.active = False  # rows of changing columns: no early decision for this run
+            return
+        cols["time"].append(float(t))
+        for key, val in row.items():
+            cols.setdefault(key, []).append(val)
+
+    def __call__(self, sim) -> str | None:
+        if not self.active:
+            return None
+        t = float(sim.state.time)
+        if self.decision is None:
+            if t < self.next_check - 1e-12:
+                return None
+            self.next_check = t + DECISION_CHECK
+            self.decision = self.proto.decision(self.ctx, pd.DataFrame(self.columns))
+            if self.decision is None:
+                return None
+        if self.stop_on and t >= self.decision.time + self.margin - 1e-9:
+            return (f"the outcome was decided at t = {self.decision.time:.3f} s ({self.decision.reason}); the run "
+                    f"went on for stop_margin = {self.margin:g} s and stopped")
+        return None
 
 
 def _topology(curves, closed, pairing) -> dict[str, Any]:
@@ -316,13 +461,18 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     topo_start = _topology(*proto.closure(ctx, [np.array(x) for x in geo.ropes]))
     ctx.data["q0"] = sim.state.q.copy()
 
+    stop_on, margin = _stop_rule(p)
+    watch = _DecisionWatch(proto, ctx, stop_on, margin)
+
     def callback(s, res):
         reactions = merge_settle_reactions(ctx, res.reactions)
-        s.rows[-1].update(proto.record(ctx, s.state.q, s.state.time, reactions))
+        row = proto.record(ctx, s.state.q, s.state.time, reactions)
+        s.rows[-1].update(row)
+        watch.add(s.state.time, row)
 
     out = Path(out_dir) if out_dir is not None else None
     ran = run_simulation(sim, cfg.duration, out, output_interval=cfg.output_interval, progress=progress,
-                         callback=callback)
+                         callback=callback, stop=watch)
     run_status = ran.status
     log = ran.log
     model = cfg.model
@@ -331,7 +481,12 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     ctx.data["topology_end"] = topo_end
     metrics = proto.metrics(ctx, log) if len(log) else {}
     notes = [*notes, *proto.notes(ctx, metrics)]
+    warnings = proto.warnings(ctx, metrics) if len(log) else []
     verdict = proto.verdict(ctx, metrics) if len(log) else "undecided"
+    # the decision as the whole log gives it (the same rule the run was watched with)
+    decision = proto.decision(ctx, log) if len(log) and watch.active else None
+    if ran.stopped is not None and decision is None:  # cannot happen with a consistent rule; said if it does
+        notes.append(f"the run was stopped at a decision the complete log does not confirm ({watch.decision})")
     status = knot_status(*topology_keys(proto, ctx, topo_start, topo_end), verdict=verdict)
     if status == "changed knot type":
         outcome = f"changed knot type ({topo_start['signature']} -> {topo_end['signature']})"
@@ -341,8 +496,12 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
         outcome = f"topology check failed at the {which}: {err}"
     else:
         outcome = status
+    for flag, _text in warnings:
+        outcome = f"{outcome}; {flag}"
     if run_status != "completed":
         outcome = f"{outcome}; simulation stopped early"
+    t0 = pull_start(ctx)
+    metrics = on_run_axis(metrics, t0, proto.event_time_keys)
     from knotsim._version import __version__
 
     summary = {
@@ -353,10 +512,13 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
         "parameters": p.as_dict(),
         "friction_model": str(spec.data["contact"]["friction_model"]),
         "EI": ctx.EI,
+        "valid": not warnings,
+        "warnings": [text for _flag, text in warnings],
         "metrics": metrics,
         "outcome": outcome,
         "knot_status": status,
         "run_status": run_status,
+        "timeline": timeline(proto, ctx, metrics, log, decision, ran.stopped),
         "topology": {"start": topo_start, "end": topo_end},
         "contact": contact_stats(log),
         "wall_time": time.perf_counter() - wall0,
