@@ -61,6 +61,7 @@ _LAZY = {
     "critical_friction": "knotsim.study.critical", "CriticalFriction": "knotsim.study.critical",
     "ProtocolResult": "knotsim.protocols",
     "run_study": "knotsim.study", "load_study": "knotsim.study", "write_report": "knotsim.study",
+    "compare_knots": "knotsim.study",
 }
 
 

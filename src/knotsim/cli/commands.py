@@ -302,11 +302,12 @@ def render(run_dir: Path, frames: str, outdir: Path | None, view: str, size: str
 def _register_subcommands() -> None:
     """The commands of the other modules of this package (their heavy imports happen inside the
     commands)."""
+    from knotsim.cli.compare import compare
     from knotsim.cli.protocols import knots, pull, tie
     from knotsim.cli.study import animate, critical_mu, report, study
     from knotsim.cli.view import view
 
-    for command in (knots, pull, tie, study, report, animate, critical_mu, view):
+    for command in (knots, pull, tie, compare, study, report, animate, critical_mu, view):
         main.add_command(command)
 
 

@@ -9,10 +9,11 @@
 See ``docs/studies.md``.
 """
 
+from knotsim.study.compare import CompareResult, compare_knots
 from knotsim.study.spec import Case, Study, expand, load_study_spec
 from knotsim.study.store import load_study
 
-__all__ = ["Case", "Study", "expand", "load_study", "load_study_spec", "run_study", "write_report"]
+__all__ = ["Case", "CompareResult", "Study", "compare_knots", "expand", "load_study", "load_study_spec", "run_study", "write_report"]
 
 
 def run_study(*args, **kwargs):
