@@ -164,14 +164,47 @@ def test_ramp_metrics_find_the_slip_load():
 
 def test_a_knot_still_moving_at_the_end_of_its_set_is_flagged():
     """The rope in the knot still changing faster than set_still_rate when the set ended: the knot
-    was loaded before it was set; the metrics and the notes say so."""
+    was loaded before it was set; the metrics say so and the warning names it, by how much, and what
+    to change."""
     moving = KnotSecurity().metrics(_Ctx(), _log(t_slip=4.0))  # the log's set creeps at -0.05 m/s
     assert moving["set_still"] is False
-    (note,) = KnotSecurity().notes(_Ctx(), moving)
-    assert "still moving" in note and "-50 mm/s" in note and "set_hold" in note
+    ((flag, text),) = KnotSecurity().warnings(_Ctx(), moving)
+    assert flag == "loaded before it was set"
+    assert text.startswith("NOT SET") and "-50 mm/s" in text and "set_hold_max" in text
+    ((_, fixed),) = KnotSecurity().warnings(_Ctx(set_until_still=False), moving)
+    assert "set set_until_still = true" in fixed
     still = KnotSecurity().metrics(_Ctx(set_still_rate=0.06), _log(t_slip=4.0))
-    assert still["set_still"] is True and KnotSecurity().notes(_Ctx(), still) == []
-    assert KnotSecurity().notes(_Ctx(), {"set_still": None}) == []  # not measured: no claim
+    assert still["set_still"] is True and KnotSecurity().warnings(_Ctx(), still) == []
+    assert KnotSecurity().warnings(_Ctx(), {"set_still": None}) == []  # not measured: no claim
+
+
+def test_the_default_sets_until_still_and_stops_at_the_decision():
+    """Valid by default: the protocol's defaults hold the set until the knot is still and end the run
+    stop_margin s after its decision."""
+    assert KnotSecurity.defaults["set_until_still"] is True
+    assert KnotSecurity.defaults["stop_at_decision"] is True and KnotSecurity.defaults["stop_margin"] == 1.0
+
+
+def test_decision_is_the_earliest_of_run_away_apart_capsize_and_spill():
+    """The run-away (decided once it has lasted 0.5 s), the ropes apart, a capsize outside a ramp (after
+    0.25 s) and a spill, on the run's clock (the load begins at 1.5 s in these logs)."""
+    ks_ = KnotSecurity()
+    d = ks_.decision(_Ctx(), _log(t_slip=4.0))
+    m = ks_.metrics(_Ctx(), _log(t_slip=4.0))
+    assert d.outcome == "slipped" and d.time == pytest.approx(1.5 + m["slip_onset"]["time"] + 0.5)
+    assert f"{1e3 * m['slip_load']:.3g} mN" in d.reason
+    assert ks_.decision(_Ctx(), _log()) is None  # held: the ramp goes on
+    # a log that ends before the run-away has lasted 0.5 s: not decided yet
+    short = _log(t_slip=4.0)
+    assert ks_.decision(_Ctx(), short[short.time <= 1.5 + 4.0 + 0.3]) is None
+    apart = _log(t_slip=4.0).assign(rope_gap=lambda x: np.where(x.time > 3.0, 0.05, 4e-3))
+    da = ks_.decision(_Ctx(), apart)
+    assert da.outcome == "apart" and da.time == pytest.approx(3.01, abs=0.011)
+    # a capsize decides a hold, not a ramp (the ramp measures the run-away load)
+    assert ks_.decision(_Ctx(), _log(capsize_at=3.0)) is None
+    dc = ks_.decision(_Ctx(load="hold"), _log(mode="hold", capsize_at=3.0))
+    assert dc.outcome == "capsized" and dc.time == pytest.approx(1.5 + 3.0 + 0.25, abs=0.02)
+    assert ks_.decision(_Ctx(), _log(one_rope=True)) is None
 
 
 def test_set_until_still_holds_the_set_until_the_knot_stops_moving():
@@ -281,12 +314,16 @@ def test_hold_metrics_measure_the_drift():
 @pytest.mark.parametrize("knot", ["reef_bend", "single_rod_reef"])
 def test_short_run_end_to_end(knot):
     """A short quick run: it sets, relaxes and loads the reef bend (or the one-rope reef of the seed
-    study) and reports the metrics."""
+    study) and reports the metrics. Its set of 0.2 s leaves the knot moving: the summary says so
+    first, the outcome carries it, and the run is not valid."""
     res = ks.run_protocol("knot-security", knot, quick=True,
                           overrides={"set_ramp": 0.2, "set_hold": 0.2, "relax_time": 0.1, "load_time": 0.6,
-                                     "transient": 0.1})
+                                     "transient": 0.1, "set_until_still": False})
     m = res["metrics"]
-    assert res["outcome"] in ("held", "slipped", "untied", "undecided")
+    assert res["knot_status"] in ("held", "slipped", "untied", "undecided")
+    assert m["set_still"] is False and res["valid"] is False
+    assert res["outcome"] == f"{res['knot_status']}; loaded before it was set"
+    assert res["warnings"][0].startswith("NOT SET: the knot was still moving")
     assert m["set_tension"] == 0.01 and math.isfinite(m["in_knot_set"]) and 0 < m["in_knot_set"] < 1.0
     assert ("slip_load" in m) and m["largest_load_held"] >= 0.001
     log = res.log
@@ -294,6 +331,50 @@ def test_short_run_end_to_end(knot):
     assert np.isnan(log["F"].iloc[0]) and np.isfinite(log["F"].iloc[-1]) and np.isfinite(log["u_pull"]).all()
     assert np.isnan(log["tail_a"]).all() == (knot == "single_rod_reef")  # one rope: no free tails
     assert ("ropes_apart" in m) == (knot == "reef_bend")
+
+
+def test_a_run_ends_at_its_decision_with_its_events_on_the_log_time_axis(tmp_path):
+    """The reef bend under a fast ramp runs away: the run stops stop_margin s after the decision (not
+    at load_time), says when and why, and every event time in the summary is a time of its log; the
+    run file replays to the same final state."""
+    from knotsim.runspec import RunSpec, run
+
+    res = ks.run_protocol("knot-security", "reef_bend", quick=True, out_dir=tmp_path / "run",
+                          overrides={"set_ramp": 0.2, "set_hold": 0.2, "relax_time": 0.1, "load_time": 6.0,
+                                     "transient": 0.1, "load_rate": 0.05, "set_until_still": False,
+                                     "stop_margin": 0.3})
+    line, m, log = res["timeline"], res["metrics"], res.log
+    t = log["time"].to_numpy()
+    dec, stop = line["decision"], line["stopped"]
+    assert dec["outcome"] == "slipped" and "ran away" in dec["reason"]
+    assert stop["time"] == pytest.approx(t[-1]) and stop["time"] - dec["time"] == pytest.approx(0.3, abs=0.06)
+    assert t[-1] < 0.2 + 0.2 + 0.1 + 6.0 - 1.0  # well before the load stage's end
+    assert "stop_margin = 0.3 s" in stop["reason"]
+    stages = {st["name"]: (st["start"], st["end"]) for st in line["stages"]}
+    assert list(stages) == ["set", "relax", "load"] and stages["load"][1] == pytest.approx(t[-1])
+    assert stages["set"][1] == pytest.approx(0.4) and stages["load"][0] == pytest.approx(0.5)
+    onset = m["slip_onset"]
+    assert onset["time"] == pytest.approx(onset["load_stage_time"] + stages["load"][0])
+    assert np.min(np.abs(t - onset["time"])) < 1e-9  # a time of the log
+    assert float(log["F"].to_numpy()[np.argmin(np.abs(t - onset["time"]))]) == pytest.approx(onset["force"])
+    assert dec["time"] == pytest.approx(onset["time"] + 0.5)
+    names = [e["name"] for e in line["events"]]
+    assert names[0] == "set_end" and {"slip_onset", "decision", "stop"} <= set(names)
+    assert [e["time"] for e in line["events"]] == sorted(e["time"] for e in line["events"])
+    replay = run(RunSpec.load(tmp_path / "run" / "run.toml"))
+    np.testing.assert_array_equal(replay.state.q, res_state_q(tmp_path / "run"))
+    # without stop_at_decision the run goes to its end
+    full = ks.run_protocol("knot-security", "reef_bend", quick=True,
+                           overrides={"set_ramp": 0.2, "set_hold": 0.2, "relax_time": 0.1, "load_time": 1.6,
+                                      "transient": 0.1, "load_rate": 0.05, "set_until_still": False,
+                                      "stop_at_decision": False})
+    assert full.log["time"].iloc[-1] == pytest.approx(0.5 + 1.6) and full["timeline"]["stopped"] is None
+
+
+def res_state_q(run_dir):
+    from knotsim.io.checkpoint import read_checkpoint
+
+    return read_checkpoint(run_dir / "checkpoint.npz").state(None).q
 
 
 def test_none_text_unsets_a_contact_setting():

@@ -176,7 +176,8 @@ def _draw_stages(ax, line: dict) -> None:
         ax.text(0.5 * (a + b), 0.99, st["name"], transform=trans, ha="center", va="top", fontsize=7, color="0.25")
 
 
-def _draw_events(ax, line: dict, t: np.ndarray, y: np.ndarray, scale: float) -> list[tuple[dict, float | None]]:
+def _draw_events(ax, line: dict, t: np.ndarray, y: np.ndarray, scale: float,
+                 unit: str = "") -> list[tuple[dict, float | None]]:
     """Mark each event of the timeline where it happened on the curve ``(t, y)`` (``y`` in the axis'
     units; an event's own force, N, times ``scale`` when it has one). Returns ``(event, y)`` pairs."""
     out = []
@@ -190,7 +191,7 @@ def _draw_events(ax, line: dict, t: np.ndarray, y: np.ndarray, scale: float) -> 
         elif ok.any() and t[ok][0] <= te <= t[ok][-1]:
             k = int(np.clip(np.searchsorted(t, te - 1e-9), 0, len(t) - 1))
             ye = float(y[k]) if np.isfinite(y[k]) else None
-        label = f"{ev['label']}: t = {te:.2f} s" + (f", {ye:.3g}" if ye is not None else "")
+        label = f"{ev['label']}: t = {te:.2f} s" + (f", {ye:.3g}{unit}" if ye is not None else "")
         if ye is None:
             ax.axvline(te, color=color, ls=":", lw=1.0, label=label)
         else:
@@ -214,7 +215,7 @@ def _plot_timeline(summary: dict, log, run: Path, out: Path, line: dict) -> Path
     else:
         y, ylabel, scale = log["F"].to_numpy(float), "F (N)", 1.0
     xcol = next(((c, lab) for c, lab in _X_COLUMNS if c in log.columns), None)
-    fig, axes = plt.subplots(1, 2 if xcol else 1, figsize=FIGSIZE_TWO if xcol else FIGSIZE_ONE, dpi=DPI,
+    fig, axes = plt.subplots(1, 2 if xcol else 1, figsize=(11.0, 5.2) if xcol else (6.4, 5.2), dpi=DPI,
                              squeeze=False)
     ax_t = axes[0, 0]
     title = f"{summary.get('knot', run.name)} ({summary['protocol']}): {summary.get('outcome', '')}"
@@ -224,11 +225,11 @@ def _plot_timeline(summary: dict, log, run: Path, out: Path, line: dict) -> Path
         fset = _set_force(summary, line, t)
         if fset is not None and np.isfinite(fset).any():
             ax_t.plot(t, scale * fset, color="tab:purple", lw=1.0, ls="--", label="set force on each set end")
-    events = _draw_events(ax_t, line, t, y, scale)
+    events = _draw_events(ax_t, line, t, y, scale, " mN" if scale == 1e3 else "")
     stop = line.get("stopped")
     ax_t.set(xlabel="time t (s), the run's clock", ylabel=ylabel, title=title)
     ax_t.grid(alpha=0.3)
-    ax_t.legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, 0.93))
+    ax_t.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, frameon=False)
     if stop:
         ax_t.text(0.99, 0.02, f"stopped {stop['time'] - line['decision']['time']:.2g} s after the decision"
                   if line.get("decision") else "stopped early", transform=ax_t.transAxes, ha="right",
@@ -263,7 +264,8 @@ def _displacement_panel(ax, summary: dict, log, line: dict, xcol, t, y, ylabel: 
             continue
         color, marker = _EVENT_STYLE.get(ev["name"], ("tab:orange", "o"))
         xe = float(np.interp(te, t, x))
-        ax.plot(xe, ye, marker, color=color, ms=7, mew=1.5, label=f"{ev['label']}: {xe:.3g}", zorder=5)
+        ax.plot(xe, ye, marker, color=color, ms=7, mew=1.5,
+                label=f"{ev['label']}: {xe:.3g}{' mm' if col == 'u_pull' else ''}", zorder=5)
     if col == "u_pull" and dec is not None and sel.any():
         # the knot's own regime: up to the decision; the run-away after it is said, not drawn to scale
         xd = float(np.interp(float(dec["time"]), t, x))
@@ -281,7 +283,7 @@ def _displacement_panel(ax, summary: dict, log, line: dict, xcol, t, y, ylabel: 
     ax.set(xlabel=xlabel, ylabel=ylabel, title=f"the load stage, {span}")
     ax.grid(alpha=0.3)
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=7)
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, frameon=False)
 
 
 def _reaction_magnitudes(log) -> dict[str, np.ndarray]:
