@@ -54,9 +54,18 @@ def _fmt(v) -> str:
 def _print_summary(s: dict, proto: str, quick: bool, outdir: Path) -> None:
     from knotsim.runspec import run_line
 
+    for warning in s.get("warnings") or ():  # first: the measurement is not valid by the protocol's own rule
+        click.echo(f"WARNING: {warning}")
     for note in s.get("notes") or ():
         click.echo(f"note: {note}")
     click.echo(f"{s['knot']} ({proto}{', quick' if quick else ''}): {s['outcome']}")
+    line = (s.get("timeline") or {})
+    if line.get("decision"):
+        d = line["decision"]
+        click.echo(f"  decided at t = {d['time']:.3f} s: {d['reason']}")
+    if line.get("stopped"):
+        click.echo(f"  stopped at t = {line['stopped']['time']:.3f} s, {_fmt(s['parameters'].get('stop_margin'))} s "
+                   "after the decision (stop_margin; stop_at_decision = false runs to the end)")
     t = s["topology"]
     click.echo(f"  knot type: {t['start'].get('knot_type')} -> {t['end'].get('knot_type')}")
     for k, v in s["metrics"].items():
