@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from knotsim.viz.camera import camera_basis, plot_area
-from knotsim.viz.scene import BACKGROUND
+from knotsim.viz.scene import BACKGROUND, NO_VALUE
 from knotsim.viz.tube import TubeMesh, unit
 
 __all__ = ["render_matplotlib"]
@@ -30,6 +30,7 @@ def render_matplotlib(mesh: TubeMesh, rgb, box, fit, view, size, title, cmap, cl
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
     from matplotlib.figure import Figure
+    from matplotlib.patches import Rectangle
     from mpl_toolkits.mplot3d import proj3d
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
@@ -56,7 +57,7 @@ def render_matplotlib(mesh: TubeMesh, rgb, box, fit, view, size, title, cmap, cl
     if values is not None:
         values = values[keep]
 
-    cm = colormaps[cmap] if isinstance(cmap, str) else cmap
+    cm = (colormaps[cmap] if isinstance(cmap, str) else cmap).with_extremes(bad=NO_VALUE)  # NaN: no value
     norm = None
     if values is not None:
         norm = Normalize(*clim)
@@ -84,6 +85,9 @@ def render_matplotlib(mesh: TubeMesh, rgb, box, fit, view, size, title, cmap, cl
     aspect = hi - lo
     ax.set_box_aspect(tuple(aspect))
     if title:
+        # a strip of background under the title: tubes running out of the framed box stop there
+        fig.add_artist(Rectangle((0.0, top_frac), 1.0, 1.0 - top_frac, transform=fig.transFigure,
+                                 facecolor=BACKGROUND, edgecolor="none", zorder=2))
         fig.text(
             0.5,
             1.0 - 0.5 * (1.0 - top_frac),
@@ -91,6 +95,7 @@ def render_matplotlib(mesh: TubeMesh, rgb, box, fit, view, size, title, cmap, cl
             ha="center",
             va="center",
             fontsize=max(6, min(14, h / 40)),
+            zorder=3,
         )
 
     # frame the view: pan (shift the axis limits in the screen plane) so that the projected
@@ -123,7 +128,10 @@ def render_matplotlib(mesh: TubeMesh, rgb, box, fit, view, size, title, cmap, cl
     coll.set_clip_on(False)  # the 3D axes clips to a square; the image may use its whole box
     ax.add_collection3d(coll, autolim=False)
     if values is not None:
+        fig.add_artist(Rectangle((right_frac, 0.0), 1.0 - right_frac, 1.0, transform=fig.transFigure,
+                                 facecolor=BACKGROUND, edgecolor="none", zorder=2))
         cax = fig.add_axes((right_frac, 0.15, min(0.04, 14.0 / w), 0.7 * top_frac))
+        cax.set_zorder(3)
         fig.colorbar(ScalarMappable(norm=norm, cmap=cm), cax=cax, label=label)
     canvas.draw()
     img = np.asarray(canvas.buffer_rgba())[..., :3].copy()

@@ -13,7 +13,7 @@ import sys
 import numpy as np
 
 from knotsim.viz.camera import camera_basis, plot_area
-from knotsim.viz.scene import BACKGROUND
+from knotsim.viz.scene import BACKGROUND, NO_VALUE
 from knotsim.viz.tube import TubeMesh
 
 __all__ = ["import_pyvista", "render_pyvista"]
@@ -66,6 +66,7 @@ def render_pyvista(mesh: TubeMesh, rgb, fit, view, size, title, cmap, clim, labe
                 scalars=label,
                 cmap=cmap,
                 clim=list(clim),
+                nan_color=NO_VALUE,
                 scalar_bar_args={
                     "title": label,
                     "vertical": True,

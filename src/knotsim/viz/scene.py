@@ -15,7 +15,7 @@ import numpy as np
 
 from knotsim.errors import ConfigError
 
-__all__ = ["BACKGROUND", "DEFAULT_COLORS", "color_range", "prepare_scene"]
+__all__ = ["BACKGROUND", "DEFAULT_COLORS", "NO_VALUE", "SPEED_FIELDS", "color_range", "prepare_scene"]
 
 DEFAULT_COLORS: tuple[str, ...] = (
     "#d62728",  # red
@@ -29,6 +29,8 @@ DEFAULT_COLORS: tuple[str, ...] = (
 )
 
 BACKGROUND = (1.0, 1.0, 1.0)  # RGB in [0, 1]
+#: Colour (RGB in [0, 1]) of the nodes without a value (NaN: a node out of contact when coloured by a speed).
+NO_VALUE = (0.74, 0.74, 0.74)
 
 
 class RenderBackend(StrEnum):
@@ -43,6 +45,12 @@ class ColorBy(StrEnum):
     """A quantity the rods can be coloured by (:func:`knotsim.viz.render.render_frame` ``color_by=``)."""
 
     BENDING_STRAIN = "bending_strain"  #: curvature times radius at every node
+    SLIP_SPEED = "slip_speed"          #: slip speed of the surfaces in contact (trajectory field, m/s; shown in mm/s)
+    ROLLING_SPEED = "rolling_speed"    #: rolling part of the surfaces' speed in contact (as slip_speed)
+
+
+#: The speed fields of a trajectory (``(T, n_nodes)`` m/s, NaN out of contact) and their colour-bar labels.
+SPEED_FIELDS: dict[str, str] = {"slip_speed": "slip speed (mm/s)", "rolling_speed": "rolling speed (mm/s)"}
 
 
 def as_backend(value) -> RenderBackend:
@@ -96,16 +104,24 @@ def prepare_scene(
         raise ConfigError("colors", str(exc)) from None
     vals = None
     label = None
+    if color_by is not None and not (scalars is not None and color_by not in tuple(ColorBy)):
+        try:
+            color_by = ColorBy(color_by)
+        except ValueError:
+            raise ConfigError("color_by", f"must be None or one of {[c.value for c in ColorBy]}, "
+                                          f"got {color_by!r}") from None
     if scalars is not None:
         vals = [np.asarray(s, dtype=np.float64).reshape(-1) for s in scalars]
         if len(vals) != n or any(v.size != c.shape[0] for v, c in zip(vals, lines, strict=True)):
             raise ConfigError("scalars", "need one (N_k,) array per rod, matching the centerlines")
         label = color_by if isinstance(color_by, str) else "value"
+        if color_by in SPEED_FIELDS:  # m/s -> mm/s
+            vals = [1e3 * v for v in vals]
+            label = SPEED_FIELDS[str(color_by)]
+    elif color_by in SPEED_FIELDS:
+        raise ConfigError("color_by", f"{color_by!r} needs the node speeds (m/s) as scalars=, one array per "
+                                      "rod (render_run and render_key_frames read them from trajectory.h5)")
     elif color_by is not None:
-        try:
-            color_by = ColorBy(color_by)
-        except ValueError:
-            raise ConfigError("color_by", f"must be None or 'bending_strain', got {color_by!r}") from None
         from knotsim.io.vtk import node_bending_strain
 
         vals = [node_bending_strain(c, r, is_c) for c, r, is_c in zip(lines, rad, cl, strict=True)]
@@ -113,13 +129,17 @@ def prepare_scene(
     return lines, rad, cl, rgb, vals, label
 
 
-def color_range(vals: list[np.ndarray], clim: Any) -> tuple[float, float]:
-    """``(lo, hi)`` colour range: ``clim`` if given, else the range of ``vals`` (never empty)."""
+def color_range(vals: list[np.ndarray], clim: Any, from_zero: bool = False) -> tuple[float, float]:
+    """``(lo, hi)`` colour range: ``clim`` if given, else the range of the finite ``vals`` (from 0
+    with ``from_zero``; ``(0, 1)`` without a finite value); never empty."""
     if clim is not None:
         lo, hi = (float(x) for x in clim)
     else:
         allv = np.concatenate(vals)
-        lo, hi = float(np.nanmin(allv)), float(np.nanmax(allv))
+        allv = allv[np.isfinite(allv)]
+        lo, hi = (float(allv.min()), float(allv.max())) if allv.size else (0.0, 1.0)
+        if from_zero:
+            lo = min(0.0, lo)
     if not hi > lo:
         hi = lo + 1e-12 if lo == 0 else lo + abs(lo) * 1e-6
     return lo, hi
