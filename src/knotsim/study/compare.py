@@ -34,7 +34,7 @@ from typing import Any
 from knotsim._util.toml import dumps_toml, load_toml, loads_toml
 from knotsim.errors import ConfigError
 
-__all__ = ["CELL_FLAGS", "CELL_METRICS", "CellMetric", "CompareResult", "cell_text", "compare_knots",
+__all__ = ["CELL_FLAGS", "CELL_METRICS", "CellFlag", "CellMetric", "CompareResult", "cell_text", "compare_knots",
            "compare_study", "format_table", "parse_mu_list"]
 
 #: The study file, the study directory and the report in a comparison's directory.
@@ -86,10 +86,24 @@ CELL_METRICS: dict[str, tuple[CellMetric, ...]] = {
 }
 _DEFAULT_CELL = (CellMetric("F_norm_peak", "peak F h²/EI"),)
 
-#: Flags added to a cell: ``metric: (value that raises the flag, text, meaning)``.
-CELL_FLAGS: dict[str, tuple[Any, str, str]] = {
-    "set_still": (False, "not set", "the knot was still moving when its set ended (loaded before it was set)"),
-}
+@dataclass(frozen=True)
+class CellFlag:
+    """A short flag added to a cell: ``text`` when metric ``metric`` is ``value``, or when the
+    protocol's outcome carries the flag ``outcome_flag`` (``"slipped; loaded before it was set"``);
+    ``meaning`` goes into the legend."""
+
+    metric: str
+    value: Any
+    text: str
+    meaning: str
+    outcome_flag: str | None = None
+
+
+#: The flags a cell can carry. Other flags of an outcome (after its ``;``) are shown as they are.
+CELL_FLAGS: tuple[CellFlag, ...] = (
+    CellFlag("set_still", False, "not set", "the knot was still moving when its set ended (loaded before it was set)",
+             "loaded before it was set"),
+)
 
 
 # ------------------------------------------------------------------------------------------ input
@@ -255,9 +269,14 @@ def cell_text(row: dict, metrics: Sequence[CellMetric]) -> str:
     else:
         shown = " / ".join(v + (f" {m.unit}" if m.unit and v != "—" else "") for v, m in zip(values, metrics,
                                                                                                 strict=True))
-    words = [w for w in (shown, str(row["outcome"]) if _present(row.get("outcome")) else "") if w]
-    words += [text for name, (flag, text, _) in CELL_FLAGS.items() if name in row and row[name] is flag]
-    return ", ".join(words) or "—"
+    outcome, *extra = str(row["outcome"]).split(";") if _present(row.get("outcome")) else [""]
+    extra = [e.strip() for e in extra if e.strip()]
+    words = [w for w in (shown, outcome.strip()) if w]
+    for f in CELL_FLAGS:
+        if (f.metric in row and row[f.metric] is f.value) or f.outcome_flag in extra:
+            words.append(f.text)
+    words += [e for e in extra if e not in {f.outcome_flag for f in CELL_FLAGS}]
+    return ", ".join(dict.fromkeys(words)) or "—"
 
 
 def legend(protocol: str, metrics: Sequence[CellMetric]) -> str:
@@ -272,7 +291,7 @@ def legend(protocol: str, metrics: Sequence[CellMetric]) -> str:
     if any(m.beyond for m in metrics):
         parts.append("> x: never slipped, held x")
     parts.append("—: did not happen")
-    return "; ".join(parts + [f"{text}: {meaning}" for _, text, meaning in CELL_FLAGS.values()]) + "."
+    return "; ".join(parts + [f"{f.text}: {f.meaning}" for f in CELL_FLAGS]) + "."
 
 
 def format_table(table, *, markdown: bool = False) -> str:
@@ -322,8 +341,8 @@ def _comparison_table(df, protocol: str, labels: dict[str, str], study_dir: Path
             for name in (m.name, m.bound, m.beyond):
                 if name is not None:
                     row[name] = _plain(rec.get(name))
-        for name in CELL_FLAGS:
-            row[name] = _plain(rec.get(name))
+        for f in CELL_FLAGS:
+            row[f.metric] = _plain(rec.get(f.metric))
         row["cell"] = cell_text(row, metrics)
         row["case_dir"] = rec.get("case_dir")
         rows.append(row)
