@@ -400,7 +400,8 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     Parameters
     ----------
     name:
-        ``"overhand-pull"``, ``"single-rod-bend"`` or ``"two-rope-bend"``.
+        A registered protocol (:func:`knotsim.protocols.registry.protocols`): ``"overhand-pull"``,
+        ``"single-rod-bend"``, ``"two-rope-bend"`` or ``"knot-security"``.
     knot:
         Library knot name or drawing path (default: the protocol's default knot).
     geometry:
