@@ -59,6 +59,26 @@ def test_html_page_is_self_contained(run_dir, tmp_path):
     assert "B0 reaction |F|" in text
 
 
+def test_html_scene_is_framed_on_the_crossing(run_dir, tmp_path):
+    """The scene's axis ranges hold the rods' crossing (plus a margin), not their whole length."""
+    pytest.importorskip("plotly")
+    from knotsim.io.trajectory import read_trajectory
+    from knotsim.viz.framing import knot_mask
+
+    text = view.write_html(run_dir, tmp_path / "f.html", max_frames=4).read_text()
+    ranges = np.array([[float(v) for v in re.search(rf'"{a}axis":\{{"range":\[([^,]+),([^\]]+)\]', text).groups()]
+                       for a in "xyz"])
+    with read_trajectory(run_dir / "trajectory.h5") as tr:
+        x = np.asarray(tr.positions[-1])
+        crossing = x[np.concatenate(knot_mask(tr.centerlines(tr.n_frames - 1), tr.rod_radius))]
+        radius = float(tr.rod_radius.max())
+    assert crossing.size
+    assert np.all(ranges[:, 0] <= crossing.min(axis=0)) and np.all(ranges[:, 1] >= crossing.max(axis=0))
+    whole = np.ptp(x, axis=0)
+    assert np.ptp(ranges[:2], axis=1).max() < 0.6 * whole[:2].max()  # the crossing, not the rods' length
+    assert np.ptp(ranges, axis=1).max() < 20 * radius + np.ptp(crossing, axis=0).max()
+
+
 def test_html_page_coloured_by_the_contacts_slip_and_rolling(run_dir, tmp_path):
     """crossing_rods (surface friction, the default): the pressed rods' contact nodes carry slip
     and rolling speeds, the page colours the lines by them with a scale from 0 to the largest."""
@@ -72,10 +92,11 @@ def test_html_page_coloured_by_the_contacts_slip_and_rolling(run_dir, tmp_path):
     assert 0 < live.sum() < slip.shape[1]  # the contact nodes only, NaN elsewhere
     page = view.write_html(run_dir, tmp_path / "slip.html", max_frames=4, color_by="slip_speed")
     text = page.read_text()
-    assert '"colorscale":[[0.0,' in text and "slip_speed (m\\u002fs)" in text  # plotly escapes the slash
+    assert f'"colorscale":[[0.0,"{view.NO_VALUE_COLOR}"]' in text  # grey: out of contact
+    assert "slip speed (mm\\u002fs)" in text  # plotly escapes the slash
     top = max(float(np.nanmax(slip[i])) for i in view.select_frames(slip.shape[0], 4) if np.any(np.isfinite(slip[i])))
     cmax = re.search(r'"cmax":([0-9.eE+-]+)', text)
-    assert cmax is not None and float(cmax.group(1)) == pytest.approx(top, rel=1e-12)
+    assert cmax is not None and float(cmax.group(1)) == pytest.approx(1e3 * top, rel=1e-12)  # mm/s
     res = CliRunner().invoke(main, ["view", str(run_dir), "--html", str(tmp_path / "r.html"), "--color-by",
                                     "rolling_speed"])
     assert res.exit_code == 0, res.output

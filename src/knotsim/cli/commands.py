@@ -286,14 +286,22 @@ def _parse_size(value: str):
 @click.option("--view", default="iso", show_default=True, help="iso, top, front or ELEV,AZIM (degrees).")
 @click.option("--size", default="800x600", show_default=True, help="Image size WIDTHxHEIGHT, pixels.")
 @click.option("--backend", type=click.Choice(["auto", "pyvista", "matplotlib"]), default="auto", show_default=True)
-@click.option("--color-by", type=click.Choice(["none", "bending_strain"]), default="none", show_default=True)
+@click.option("--color-by", type=click.Choice(["none", "bending_strain", "slip_speed", "rolling_speed"]),
+              default="none", show_default=True,
+              help="One colour per rope (none), or colour by the bending strain, or by where the contacts "
+                   "slide (slip_speed) or roll (rolling_speed), mm/s, nodes out of contact grey (runs with "
+                   "surface friction).")
+@click.option("--frame", "framing", type=click.Choice(["knot", "scene"]), default="knot", show_default=True,
+              help="Frame each picture on the knot (the ropes in contact plus a margin; the rest may be "
+                   "clipped) or on the whole scene (all pictures alike).")
 @_exit_codes
-def render(run_dir: Path, frames: str, outdir: Path | None, view: str, size: str, backend: str, color_by: str):
+def render(run_dir: Path, frames: str, outdir: Path | None, view: str, size: str, backend: str, color_by: str,
+           framing: str):
     """Render frames of RUN_DIR's trajectory as shaded tubes (PNG)."""
     from knotsim.viz.render import render_run
 
     paths = render_run(run_dir, frames=_parse_frames(frames), out_dir=outdir, view=_parse_view(view),
-                       size=_parse_size(size), backend=backend,
+                       size=_parse_size(size), backend=backend, frame=framing,
                        color_by=None if color_by == "none" else color_by)
     for p in paths:
         click.echo(str(p))

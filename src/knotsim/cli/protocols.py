@@ -28,6 +28,22 @@ from knotsim.cli.errors import exit_codes as _exit_codes
 from knotsim.cli.output import OUTPUT_DIR, announce_compile, default_dir, prepare_output
 
 
+class ProtocolOption(click.Option):
+    """``--protocol``: its help lists the registered protocols (read from the registry when the help
+    is shown, so that it names every protocol and importing the command line stays light)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.base_help = self.help or ""
+
+    def get_help_record(self, ctx):
+        from knotsim.protocols.registry import protocols
+
+        names = sorted(protocols())
+        self.help = f"{', '.join(names[:-1])} or {names[-1]} {self.base_help}"
+        return super().get_help_record(ctx)
+
+
 @click.command()
 @_exit_codes
 def knots():
@@ -118,12 +134,14 @@ def _quick_notes(protocol: str, overrides: dict, geometry) -> list[str]:
 
 
 def _figures(outdir: Path) -> list[Path]:
-    """force.png and renders of the first and last frames (matplotlib, no display needed)."""
+    """force.png and pictures of the key frames framed on the knot (render/set_end.png,
+    slow_slip_onset.png, decision.png; first.png and last.png without those events), matplotlib,
+    no display needed."""
     from knotsim.viz.plot import plot_run
-    from knotsim.viz.render import render_run
+    from knotsim.viz.render import render_key_frames
 
     paths = [plot_run(outdir, outdir / "force.png")]
-    paths += render_run(outdir, frames=[0, -1], backend="matplotlib", size=(640, 480))
+    paths += render_key_frames(outdir, backend="matplotlib", size=(640, 480))
     return paths
 
 
@@ -135,9 +153,8 @@ def _figures(outdir: Path) -> list[Path]:
 @click.option("--matrices", default=None, metavar="A,B",
               help="The rope matrices of a --geometry .mat file, in order (the ropes take their names; default: "
                    "every 3 x N or N x 3 matrix, and an ambiguous file is refused). Same as --set geometry_matrices=A,B.")
-@click.option("--protocol", "protocol", default=None,
-              help="overhand-pull, single-rod-bend or two-rope-bend (default: from the knot's kind, or the protocol "
-                   "that wrote the --geometry run).")
+@click.option("--protocol", "protocol", default=None, cls=ProtocolOption,
+              help="(default: from the knot's kind, or the protocol that wrote the --geometry run).")
 @click.option("--set", "assignments", multiple=True, metavar="KEY=VALUE",
               help="Override a parameter (repeatable), e.g. --set mu=0.3 --set contact.delta=1e-3.")
 @click.option("-o", "--output", "outdir", type=OUTPUT_DIR, default=None,

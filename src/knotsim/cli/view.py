@@ -27,8 +27,9 @@ from knotsim.cli.errors import exit_codes as _exit_codes
 @click.option("--color-by", "color_by", type=click.Choice(["rod", "slip_speed", "rolling_speed", "contact_force",
                                                           "friction_force"]), default="rod", show_default=True,
               help="With --html: colour the rods by a node field of the trajectory: where contacts slide "
-                   "(slip_speed) and roll (rolling_speed), m/s, with surface friction; contact_force and "
-                   "friction_force, N. 'rod': one colour per rod.")
+                   "(slip_speed) and roll (rolling_speed), mm/s, with surface friction; contact_force and "
+                   "friction_force, N; nodes out of contact grey. 'rod': one colour per rod. The scene is "
+                   "framed on the knot.")
 @_exit_codes
 def view(run_dir: Path, html: Path | None, max_frames: int, color_by: str):
     """View the run in RUN_DIR: an interactive 3D window, or with --html FILE a web page."""

@@ -23,11 +23,17 @@ from pathlib import Path
 import numpy as np
 
 from knotsim.errors import ConfigError
+from knotsim.viz.scene import DEFAULT_COLORS
 
 __all__ = ["COLOR_FIELDS", "NodeField", "force_curves", "has_display", "run_directory", "select_frames", "show_window", "write_html"]
 
-#: Colour of each rod (cycled), as CSS hex strings.
-ROD_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf")
+#: Colour of each rod (cycled), as CSS hex strings: those of the rendered pictures
+#: (:data:`knotsim.viz.scene.DEFAULT_COLORS`), the two ropes of a bend red and blue.
+ROD_COLORS = DEFAULT_COLORS
+#: CSS colour of the nodes without a value (out of contact) when coloured by a node field.
+NO_VALUE_COLOR = "#bdbdbd"
+#: Share of the colour scale (at its bottom) that stands for "no value".
+_NO_VALUE_SHARE = 0.06
 #: Not reaction forces, though their names end in ``_force``.
 _NOT_REACTIONS = {"contact_force_total", "friction_force_total"}
 
@@ -77,11 +83,25 @@ def _frame_lines(traj, i: int) -> list[np.ndarray]:
 
 
 def _scene_box(traj, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Lower and upper corners (m) of a box holding every selected frame, each side at least a tenth
-    of the longest (a flat knot keeps some depth)."""
-    x = np.asarray(traj.positions[frames], dtype=float).reshape(-1, 3)
-    pad = float(np.max(traj.rod_radius))
-    lo, hi = x.min(axis=0) - pad, x.max(axis=0) + pad
+    """Lower and upper corners (m) of the box the page's scene is framed on: the knot (the ropes in
+    contact where they cross, plus a margin; :mod:`knotsim.viz.framing`) over every selected frame
+    that has one, else the first frame's closest approach between ropes or whole scene. Each side
+    is at least a tenth of the longest (a flat knot keeps some depth)."""
+    from knotsim.viz.framing import _box, _margin, knot_mask, knot_region, union_box
+
+    radius, closed = traj.rod_radius, traj.rod_closed
+    pad = _margin(np.asarray(radius, dtype=float), None)
+    boxes = []
+    for i in frames:  # a loop over the shown frames; the nodes are vectorised
+        lines = traj.centerlines(int(i))
+        mask = np.concatenate(knot_mask(lines, radius, closed))
+        if mask.any():
+            boxes.append(_box(np.concatenate(lines)[mask], pad))
+    if boxes:
+        box = union_box(boxes)
+        lo, hi = box[:, 0], box[:, 1]
+    else:
+        lo, hi = knot_region(traj.centerlines(int(frames[0])), radius, closed)
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
     half = np.maximum(half, 0.1 * half.max())
     return mid - half, mid + half
@@ -110,8 +130,9 @@ COLOR_FIELDS = tuple(NodeField)
 
 
 def _node_colors(traj, frames: np.ndarray, color_by: str) -> tuple[dict[int, list[np.ndarray]], float, str]:
-    """Per-rod node values of ``color_by`` at the selected frames (NaN, no contact, shown as 0), the
-    top of the colour scale (the largest value shown) and its unit."""
+    """Per-rod node values of ``color_by`` at the selected frames (speeds in mm/s, forces in N; the
+    nodes without a value, NaN: out of contact, get a value below 0 that the colour scale shows
+    grey), the top of the colour scale (the largest value shown) and its unit."""
     try:
         color_by = NodeField(color_by).value  # checked; a plain string from here on
     except ValueError:
@@ -120,18 +141,36 @@ def _node_colors(traj, frames: np.ndarray, color_by: str) -> tuple[dict[int, lis
         hint = (" (written by runs with rod-rod contact and contact.friction_model = 'surface')"
                 if color_by in ("slip_speed", "rolling_speed") else " (written by runs with contact)")
         raise ConfigError("color_by", f"the trajectory has no {color_by!r}{hint}")
+    unit = traj.units.get(color_by, "")
+    scale = 1e3 if unit == "m/s" else 1.0
+    raw = {int(i): scale * np.asarray(traj.fields[color_by][int(i)], dtype=float) for i in frames}
+    finite = [v[np.isfinite(v)] for v in raw.values()]
+    top = max((float(v.max()) for v in finite if v.size), default=0.0)
+    top = top if top > 0.0 else 1.0
+    below = -top * _NO_VALUE_SHARE / (1.0 - _NO_VALUE_SHARE)  # the grey part of the scale
     starts = traj.rod_node_start
     values = {}
-    top = 0.0
-    for i in frames:
-        v = np.nan_to_num(np.asarray(traj.fields[color_by][int(i)], dtype=float), nan=0.0)
+    for i, v in raw.items():
+        v = np.where(np.isfinite(v), v, below)
         per_rod = []
         for r in range(traj.n_rods):  # a loop over rods, once per shown frame
             w = v[starts[r]:starts[r + 1]]
             per_rod.append(np.append(w, w[:1]) if traj.rod_closed[r] else w)
-        values[int(i)] = per_rod
-        top = max(top, float(np.max(v)) if v.size else 0.0)
-    return values, top if top > 0.0 else 1.0, traj.units.get(color_by, "")
+        values[i] = per_rod
+    return values, top, "mm/s" if scale == 1e3 else unit
+
+
+def _colorscale() -> list:
+    """Plotly colour scale: grey for its bottom :data:`_NO_VALUE_SHARE` (no value), Viridis above."""
+    from matplotlib import colormaps
+    from matplotlib.colors import to_hex
+
+    cm = colormaps["viridis"]
+    s = _NO_VALUE_SHARE
+    stops = np.round(s + (1.0 - s) * np.arange(11) / 10, 6)
+    stops[-1] = 1.0  # plotly refuses a scale that does not end at exactly 1
+    return [[0.0, NO_VALUE_COLOR], [s, NO_VALUE_COLOR]] + [
+        [float(x), to_hex(cm(k / 10))] for k, x in enumerate(stops)]
 
 
 def write_html(run_dir: str | os.PathLike, out: str | os.PathLike, *, max_frames: int = 100,
@@ -151,9 +190,12 @@ def write_html(run_dir: str | os.PathLike, out: str | os.PathLike, *, max_frames
         Width of the rods' lines, in screen pixels.
     color_by:
         ``None`` (one colour per rod) or a node field of the trajectory (:data:`COLOR_FIELDS`):
-        ``"slip_speed"`` and ``"rolling_speed"`` (m/s; where strands slide and where they roll, runs
-        with surface friction), ``"contact_force"``, ``"friction_force"`` (N). Nodes without contact
-        show 0; the scale runs from 0 to the largest value shown.
+        ``"slip_speed"`` and ``"rolling_speed"`` (shown in mm/s; where strands slide and where they
+        roll, runs with surface friction), ``"contact_force"``, ``"friction_force"`` (N). Nodes
+        without a value (out of contact) are grey; the scale runs from 0 to the largest value shown.
+
+    The scene is framed on the knot (the ropes in contact plus a margin, over the frames shown);
+    the parts of the ropes outside it are clipped.
 
     Returns
     -------
@@ -184,8 +226,10 @@ def write_html(run_dir: str | os.PathLike, out: str | os.PathLike, *, max_frames
         if colors is None:
             return {"width": line_width, "color": ROD_COLORS[r % len(ROD_COLORS)]}
         values, top, unit = colors
-        return {"width": line_width, "color": values[i][r], "colorscale": "Viridis", "cmin": 0.0, "cmax": top,
-                "showscale": r == 0, "colorbar": {"title": f"{color_by} ({unit})", "x": -0.05}}
+        return {"width": line_width, "color": values[i][r], "colorscale": _colorscale(),
+                "cmin": -top * _NO_VALUE_SHARE / (1.0 - _NO_VALUE_SHARE), "cmax": top, "showscale": r == 0,
+                "colorbar": {"title": f"{str(color_by).replace('_', ' ')} ({unit})<br>grey: no contact",
+                             "x": -0.05, "y": 0.45, "len": 0.75, "tick0": 0.0}}
 
     def rod_traces(i: int) -> list:
         return [go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="lines", name=names[r],
