@@ -254,7 +254,7 @@ def cell_text(row: dict, metrics: Sequence[CellMetric]) -> str:
     values = []
     for m in metrics:
         v = row.get(m.name)
-        if _present(v) and not isinstance(v, bool | str):
+        if v is not None and _present(v) and not isinstance(v, bool | str):
             text = _number(m.scale * float(v))
             if m.bound is not None and row.get(m.bound) is True:
                 text = "≤ " + text
@@ -289,7 +289,7 @@ def legend(protocol: str, metrics: Sequence[CellMetric]) -> str:
     if any(m.bound for m in metrics):
         parts.append("≤ x: at most x (the knot was already slipping when the detection began)")
     if any(m.beyond for m in metrics):
-        parts.append("> x: never slipped, held x")
+        parts.append("> x: no run-away up to x, the largest load applied")
     parts.append("—: did not happen")
     return "; ".join(parts + [f"{f.text}: {f.meaning}" for f in CELL_FLAGS]) + "."
 
@@ -543,14 +543,20 @@ def _onset_time(summary: dict, name: str, t0: float) -> float | None:
     return None
 
 
+def _onset(summary: dict, t0: float) -> float | None:
+    """When the knot began to give way (s, log axis): the earliest of the run-away slip and capsize
+    onsets (the slip load of the table is the force there), or None."""
+    times = [t for name in ("slip_onset", "capsize_onset") if (t := _onset_time(summary, name, t0)) is not None]
+    return min(times) if times else None
+
+
 def _decision_time(summary: dict, t0: float) -> float | None:
-    """When the knot's fate was decided (s, log axis): the timeline's decision, else the earliest
-    of the slip and capsize onsets."""
+    """When the knot's fate was decided (s, log axis): the timeline's decision (a run-away is
+    decided once it has lasted its 0.5 s), else the onset (:func:`_onset`)."""
     decision = (summary.get("timeline") or {}).get("decision")
     if isinstance(decision, dict) and isinstance(decision.get("time"), int | float):
         return float(decision["time"])
-    times = [t for name in ("slip_onset", "capsize_onset") if (t := _onset_time(summary, name, t0)) is not None]
-    return min(times) if times else None
+    return _onset(summary, t0)
 
 
 def _nearest(t, value: float | None) -> int | None:
@@ -585,10 +591,12 @@ def _force_curves(result: CompareResult) -> list[dict]:
             continue
         u = np.asarray(log["u_pull"], float)[keep] * 1e3 if "u_pull" in log.columns else None
         td = _decision_time(summary, t0)
+        tn = _onset(summary, t0)
         ts = _onset_time(summary, "slow_slip_onset", t0)
         tk = t[keep] - t0
         curves.append({"knot": r["knot"], "mu": r["mu"], "t": tk, "F": f[keep] * 1e3, "u": u,
                        "decision": _nearest(tk, None if td is None else td - t0),
+                       "onset": _nearest(tk, None if tn is None else tn - t0),
                        "slow": _nearest(tk, None if ts is None else ts - t0),
                        "force_control": (summary.get("protocol") == "knot-security"
                                          and (summary.get("parameters") or {}).get("load") != "slide")})
@@ -596,7 +604,7 @@ def _force_curves(result: CompareResult) -> list[dict]:
 
 
 def _window_end(c: dict) -> int:
-    """Index of the last sample of a curve worth showing: a margin past its decision (a quarter of
+    """Index of the last sample of a curve worth showing: a margin past its decision (a tenth of
     the load stage up to it, at least 3 samples), or the whole curve."""
     import numpy as np
 
@@ -604,7 +612,7 @@ def _window_end(c: dict) -> int:
     if c["decision"] is None:
         return n - 1
     td = float(c["t"][c["decision"]])
-    end = int(np.searchsorted(c["t"], 1.25 * td, side="right")) - 1
+    end = int(np.searchsorted(c["t"], 1.1 * td, side="right")) - 1
     return min(n - 1, max(end, c["decision"] + 3))
 
 
@@ -630,17 +638,17 @@ def _plot_forces(result: CompareResult, path: Path) -> bool:
     styles = ["-", "--", ":", "-."]
     style = {m: styles[i % len(styles)] for i, m in enumerate(mus)}
     fig, (ax_u, ax_t) = plt.subplots(1, 2, figsize=(11.0, 4.2), dpi=DPI)
-    lim = {"u": [math.inf, -math.inf], "t": 0.0, "F": 0.0}
+    u_lo, u_hi, t_hi, f_hi = math.inf, -math.inf, 0.0, 0.0
     for c in curves:
         e = _window_end(c) + 1
         kw = {"color": colours[c["knot"]], "ls": style[c["mu"]], "lw": 1.4}
         ax_t.plot(c["t"], c["F"], **kw)
-        lim["t"] = max(lim["t"], float(c["t"][e - 1]))
-        lim["F"] = max(lim["F"], float(np.nanmax(c["F"][:e])))
+        t_hi = max(t_hi, float(c["t"][e - 1]))
+        f_hi = max(f_hi, float(np.nanmax(c["F"][:e])))
         if c["u"] is not None:
             ax_u.plot(c["u"], c["F"], **kw)
-            lim["u"] = [min(lim["u"][0], float(np.nanmin(c["u"][:e]))), max(lim["u"][1], float(np.nanmax(c["u"][:e])))]
-        for key, marker in (("slow", "v"), ("decision", "o")):
+            u_lo, u_hi = min(u_lo, float(np.nanmin(c["u"][:e]))), max(u_hi, float(np.nanmax(c["u"][:e])))
+        for key, marker in (("slow", "v"), ("onset", "o")):
             k = c[key]
             if k is None:
                 continue
@@ -648,21 +656,22 @@ def _plot_forces(result: CompareResult, path: Path) -> bool:
             ax_t.plot(c["t"][k], c["F"][k], marker, **mk)
             if c["u"] is not None:
                 ax_u.plot(c["u"][k], c["F"][k], marker, **mk)
-    top = 1.08 * lim["F"] if lim["F"] > 0 else 1.0
+    top = 1.08 * f_hi if f_hi > 0 else 1.0
     for ax in (ax_u, ax_t):
         ax.set_ylim(min(0.0, ax.get_ylim()[0]), top)
         ax.grid(alpha=0.3)
         ax.set_ylabel("force on the loaded end F (mN)")
-    if math.isfinite(lim["u"][0]):
-        pad = 0.05 * max(lim["u"][1] - lim["u"][0], 1e-3)
-        ax_u.set_xlim(lim["u"][0] - pad, lim["u"][1] + pad)
+    if math.isfinite(u_lo):
+        pad = 0.05 * max(u_hi - u_lo, 1e-3)
+        ax_u.set_xlim(u_lo - pad, u_hi + pad)
         ax_u.set_xlabel("displacement of the loaded end u_pull (mm, from where the run began)")
     else:
         ax_u.text(0.5, 0.5, "no displacement column (u_pull) in these logs", ha="center", transform=ax_u.transAxes)
-    ax_t.set_xlim(0.0, 1.05 * lim["t"] if lim["t"] > 0 else 1.0)
+    ax_t.set_xlim(0.0, 1.05 * t_hi if t_hi > 0 else 1.0)
     ax_t.set_xlabel("time since the load began (s)")
     if all(c["force_control"] for c in curves):
-        ax_t.set_title("the load is prescribed: curves coincide until each knot's decision", fontsize="small")
+        ax_t.set_title("the load is prescribed: the curves coincide, each ends soon after its knot's decision",
+                       fontsize="small")
     shown = {c["knot"] for c in curves}
     handles = [Line2D([], [], color=colours[k], lw=2, label=k) for k in knots if k in shown]
     if len(mus) > 1:
@@ -670,8 +679,8 @@ def _plot_forces(result: CompareResult, path: Path) -> bool:
     if any(c["slow"] is not None for c in curves):
         handles.append(Line2D([], [], ls="", marker="v", color="w", mec="k", label="slow slip begins"))
     decided = any(c["decision"] is not None for c in curves)
-    if decided:
-        handles.append(Line2D([], [], ls="", marker="o", color="w", mec="k", label="decision (run-away, capsize)"))
+    if any(c["onset"] is not None for c in curves):
+        handles.append(Line2D([], [], ls="", marker="o", color="w", mec="k", label="run-away slip (or capsize) begins"))
     ax_t.legend(handles=handles, fontsize="small")
     title = f"{result.protocol}" + (f", mu = {mus[0]:g}" if len(mus) == 1 else "")
     fig.suptitle(f"Force curves of the load stage ({title})"
@@ -685,9 +694,11 @@ def _plot_forces(result: CompareResult, path: Path) -> bool:
 def _picture(case_dir: Path, out_dir: Path) -> tuple[list[Path], str | None]:
     """The knot at its decision (``render_key_frames``), or its last frame when that function is
     missing or wrote nothing; the PNG files and a note on the fallback (or None)."""
-    try:
-        from knotsim.viz.render import render_key_frames  # written alongside this module
-    except (ImportError, AttributeError):
+    import importlib
+
+    try:  # written alongside this module: older installations lack it
+        render_key_frames = getattr(importlib.import_module("knotsim.viz.render"), "render_key_frames", None)
+    except ImportError:
         render_key_frames = None
     note = None
     paths: list[Path] = []
@@ -739,9 +750,10 @@ def _write_report(result: CompareResult, study: dict, quick: bool) -> None:
         result.figure = figure
         lines += ["## Force curves", "",
                   "The force on the loaded end against its displacement and against the time since the load "
-                  "began; one colour per knot, one line style per mu, a dot at each decision (run-away slip or "
-                  "capsize), a triangle where a slow slip began. "
-                  "The axes stop a little past the last decision (the ropes fly apart after a run-away).", "",
+                  "began; one colour per knot, one line style per mu, a dot where the run-away slip (or a "
+                  "capsize) began (the slip load of the table), a triangle where a slow slip began. "
+                  "The axes stop a little past the last decision (a run-away is decided once it has lasted "
+                  "0.5 s; the ropes then fly apart).", "",
                   f"![force curves]({FIGURE})", ""]
     pictures = out / PICTURES
     if pictures.exists():
