@@ -9,12 +9,13 @@ import click
 
 from knotsim.cli.errors import EXIT_FAILED_CHECKS, exit_codes
 from knotsim.cli.output import OUTPUT_DIR, default_dir, prepare_output
+from knotsim.cli.protocols import ProtocolOption
 
 
 @click.command("compare")
 @click.argument("knots", nargs=-1, required=True)
-@click.option("--protocol", default="knot-security", show_default=True,
-              help="The loading protocol every knot goes through.")
+@click.option("--protocol", default="knot-security", show_default=True, cls=ProtocolOption,
+              help="(the protocol every knot goes through).")
 @click.option("--set", "assignments", multiple=True, metavar="KEY=VALUE",
               help="A protocol parameter for every case (repeatable), e.g. --set load_time=5.")
 @click.option("--mu", "mu_text", default=None, metavar="MU[,MU...]",

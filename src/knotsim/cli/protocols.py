@@ -28,6 +28,22 @@ from knotsim.cli.errors import exit_codes as _exit_codes
 from knotsim.cli.output import OUTPUT_DIR, announce_compile, default_dir, prepare_output
 
 
+class ProtocolOption(click.Option):
+    """``--protocol``: its help lists the registered protocols (read from the registry when the help
+    is shown, so that it names every protocol and importing the command line stays light)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.base_help = self.help or ""
+
+    def get_help_record(self, ctx):
+        from knotsim.protocols.registry import protocols
+
+        names = sorted(protocols())
+        self.help = f"{', '.join(names[:-1])} or {names[-1]} {self.base_help}"
+        return super().get_help_record(ctx)
+
+
 @click.command()
 @_exit_codes
 def knots():
@@ -137,9 +153,8 @@ def _figures(outdir: Path) -> list[Path]:
 @click.option("--matrices", default=None, metavar="A,B",
               help="The rope matrices of a --geometry .mat file, in order (the ropes take their names; default: "
                    "every 3 x N or N x 3 matrix, and an ambiguous file is refused). Same as --set geometry_matrices=A,B.")
-@click.option("--protocol", "protocol", default=None,
-              help="overhand-pull, single-rod-bend or two-rope-bend (default: from the knot's kind, or the protocol "
-                   "that wrote the --geometry run).")
+@click.option("--protocol", "protocol", default=None, cls=ProtocolOption,
+              help="(default: from the knot's kind, or the protocol that wrote the --geometry run).")
 @click.option("--set", "assignments", multiple=True, metavar="KEY=VALUE",
               help="Override a parameter (repeatable), e.g. --set mu=0.3 --set contact.delta=1e-3.")
 @click.option("-o", "--output", "outdir", type=OUTPUT_DIR, default=None,

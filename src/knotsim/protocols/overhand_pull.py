@@ -59,6 +59,7 @@ def force_drop(log, transient: float = 0.0) -> dict | None:
 
 class OverhandPull(LoadingProtocol):
     name = "overhand-pull"
+    event_time_keys = ("F_norm_peak_time",)
     description = "Tighten an open overhand knot by pulling both clamped ends apart (Choi et al. 2021)"
     kinds = ("overhand",)
     default_knot = "overhand_n1"

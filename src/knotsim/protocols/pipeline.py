@@ -65,22 +65,32 @@ CRITERION_LABELS = {"runaway": "run-away", "drift": "rope through (hold)", "spil
                     "tail draw-in": "tails drawn in"}
 
 
-def on_run_axis(metrics: dict[str, Any], t0: float, event_keys: tuple[str, ...] = ()) -> dict[str, Any]:
+def on_run_axis(metrics: dict[str, Any], t0: float, event_keys: tuple[str, ...] = (),
+                times: np.ndarray | None = None) -> dict[str, Any]:
     """``metrics`` with every event time moved from the measured load's clock (s since it began,
     as the protocols compute them) to the run's (the log's ``time``): each table with a ``"time"``
     (and ``"detected_at"``) gets ``t0`` added and keeps the load's clock as ``"load_stage_time"``;
-    the scalar ``event_keys`` get ``t0`` added."""
+    the scalar ``event_keys`` get ``t0`` added. With the log's ``times`` (s), a time within 1e-9 s of
+    one of them becomes that time exactly (the sum ``t0 + t`` can differ from it in the last bits)."""
+    def shift(t: float) -> float:
+        v = float(t) + t0
+        if times is not None and len(times):
+            k = int(np.argmin(np.abs(times - v)))
+            if abs(float(times[k]) - v) <= 1e-9:
+                return float(times[k])
+        return v
+
     out: dict[str, Any] = {}
     for key, val in metrics.items():
         if isinstance(val, dict) and isinstance(val.get("time"), int | float) and not isinstance(val["time"], bool):
             ev = dict(val)
             ev["load_stage_time"] = float(val["time"])
-            ev["time"] = float(val["time"]) + t0
+            ev["time"] = shift(val["time"])
             if isinstance(val.get("detected_at"), int | float):
-                ev["detected_at"] = float(val["detected_at"]) + t0
+                ev["detected_at"] = shift(val["detected_at"])
             out[key] = ev
         elif key in event_keys and isinstance(val, int | float) and not isinstance(val, bool) and math.isfinite(val):
-            out[key] = float(val) + t0
+            out[key] = shift(val)
         else:
             out[key] = val
     return out
@@ -104,11 +114,12 @@ def timeline(proto: LoadingProtocol, ctx: RunContext, metrics: dict[str, Any], l
     """The run's stages and events on the log's time axis (s), from its metrics already on that axis
     (:func:`on_run_axis`), its ``decision`` and why it ``stopped`` early (module docstring, item 7)."""
     t_end = float(log["time"].iloc[-1]) if len(log) else 0.0
-    stages = [{"name": n, "start": a, "end": b} for n, a, b in proto.stages(ctx, t_end)]
+    spans = proto.stages(ctx, t_end)
+    stages = [{"name": n, "start": a, "end": b} for n, a, b in spans]
     set_tension = ctx.params.values.get("set_tension")  # on the set ends when the set ends (knot-security)
-    events: list[dict[str, Any]] = [{"name": "set_end", "label": "set knot", "time": st["end"],
+    events: list[dict[str, Any]] = [{"name": "set_end", "label": "set knot", "time": b,
                                      "force": float(set_tension) if isinstance(set_tension, int | float) else None}
-                                    for st in stages if st["name"] == "set" and st["end"] < t_end + 1e-9]
+                                    for n, _a, b in spans if n == "set" and b < t_end + 1e-9]
     for key, val in metrics.items():
         if isinstance(val, dict) and isinstance(val.get("time"), int | float):
             label = EVENT_LABELS.get(key, key.replace("_", " "))
@@ -502,7 +513,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     if run_status != "completed":
         outcome = f"{outcome}; simulation stopped early"
     t0 = pull_start(ctx)
-    metrics = on_run_axis(metrics, t0, proto.event_time_keys)
+    metrics = on_run_axis(metrics, t0, proto.event_time_keys, np.asarray(log["time"], float) if len(log) else None)
     from knotsim._version import __version__
 
     summary = {

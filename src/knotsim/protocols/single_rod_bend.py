@@ -104,6 +104,7 @@ def pre_pull_time(params, moving_ends: int = 2) -> float:
 
 class SingleRodBend(LoadingProtocol):
     name = "single-rod-bend"
+    event_time_keys = ("F_norm_peak_time",)
     description = "Pull the two ends of a one-rod reef/granny apart, bottom of the first overhand held (MAE259B)"
     kinds = ("single_rod_bend",)
     default_knot = "single_rod_reef"

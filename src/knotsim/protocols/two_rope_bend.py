@@ -294,6 +294,7 @@ def pre_tighten_time(params) -> float:
 
 class TwoRopeBend(LoadingProtocol):
     name = "two-rope-bend"
+    event_time_keys = ("F_norm_peak_time",)
     description = "Hold one end of rope A, pull the far end of rope B, tails free (Patil et al. 2020)"
     kinds: tuple[str, ...] = ("bend",)
     default_knot = "reef_bend"
