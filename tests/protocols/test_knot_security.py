@@ -154,12 +154,38 @@ def test_ramp_metrics_find_the_slip_load():
     assert m["set_creep"] == pytest.approx(-0.05, rel=1e-6)  # still drawing in over the end of the set hold
     assert m["slip_during_transient"] is False
     assert m["slow_slip_onset"]["time"] <= onset and m["slow_slip_load"] <= m["slip_load"]
-    early = KnotSecurity().metrics(_Ctx(), _log(t_slip=0.2))  # running away before the transient ends
+    # detection from 1 s into the load (the rule of the studies before 0.2): a run-away under way by
+    # then is flagged, its load a bound
+    early = KnotSecurity().metrics(_Ctx(detect_after=1.0), _log(t_slip=0.2))
     assert early["slip_during_transient"] is True and early["slip_onset"]["time"] == pytest.approx(1.0, abs=0.01)
     assert early["slow_slip_during_transient"] is True and m["slow_slip_during_transient"] is False
     held = KnotSecurity().metrics(_Ctx(), _log())
     assert held["slip_onset"] is None and held["slip_load"] is None
     assert held["largest_load_held"] == pytest.approx(0.001 + 0.002 * 10.49, rel=1e-3)
+
+
+def test_slow_slip_is_rope_through_the_knot_from_the_first_instant():
+    """One slip rule: a slow slip is rope passing through the knot (the loaded end out and the tails
+    drawn in, the lesser of the two speeds); the loaded end let out while the tails stay (the standing
+    part stretching, the knot changing shape) is none. Detection starts with the load, so a knot that
+    slips at once is resolved down to the hold tension (no floor at 1 s into the ramp)."""
+    from_start = _log(drift=4e-3)  # rope through at 4 mm/s from the load's first instant
+    m = KnotSecurity().metrics(_Ctx(), from_start)
+    assert m["slow_slip_onset"]["criterion"] == "through"
+    assert m["slow_slip_onset"]["time"] < 0.3 and m["slow_slip_load"] < 0.0016  # the hold tension is 1 mN
+    assert m["slow_slip_during_transient"] is False
+    old = KnotSecurity().metrics(_Ctx(detect_after=1.0, slip_rule="loaded_end"), from_start)
+    assert old["slow_slip_load"] == pytest.approx(0.003, abs=1e-4) and old["slow_slip_during_transient"] is True
+    stretch = KnotSecurity().metrics(_Ctx(), _log(drift=4e-3, tails_follow=0.0))  # the end out, the tails still
+    assert stretch["slow_slip_onset"] is None
+    assert KnotSecurity().metrics(_Ctx(slip_rule="loaded_end"), _log(drift=4e-3, tails_follow=0.0))[
+        "slow_slip_onset"] is not None
+    drawn_up = KnotSecurity().metrics(_Ctx(), _log(drift=0.0, tails_in=4e-3))  # the tails in, the end still
+    assert drawn_up["slow_slip_onset"] is None
+    one = KnotSecurity().metrics(_Ctx(), _log(drift=4e-3, one_rope=True))  # no tails: the loaded ends decide
+    assert one["slow_slip_onset"] is not None
+    with pytest.raises(ConfigError, match="^slip_rule:"):
+        _spec(slip_rule="tails")
 
 
 def test_a_knot_still_moving_at_the_end_of_its_set_is_flagged():
@@ -409,7 +435,7 @@ def test_pulse_metrics_count_cycles_to_spill():
     t = np.arange(0.0, 6.0, 0.01)
     u = np.where(t > 2.5, 0.004 * (t - 2.5) ** 2, 0.0)  # creeps from the third pulse on, faster and faster
     log = pd.DataFrame({"time": t + 1.5, "F": np.ones(t.size), "F_norm": np.ones(t.size), "u_pull": u,
-                        "tail_a": np.full(t.size, 0.3), "tail_b": np.full(t.size, 0.3),
+                        "tail_a": 0.3 - u / 2, "tail_b": 0.3 - u / 2,  # rope through the knot: the tails drawn in
                         "rope_gap": np.full(t.size, 4e-3), "in_knot": np.full(t.size, 0.2)})
     m = KnotSecurity().metrics(_Ctx(load="pulses", pulse_period=1.0, n_pulses=5, spill_distance=0.01), log)
     drift = np.interp([1, 2, 3, 4, 5], t, u)
@@ -421,6 +447,11 @@ def test_pulse_metrics_count_cycles_to_spill():
     drawn_in = KnotSecurity().metrics(_Ctx(load="pulses", pulse_period=1.0, n_pulses=5, spill_distance=0.01),
                                       log.assign(u_pull=-u))  # the knot settling: the end drawn in
     assert drawn_in["cycles_to_spill"] is None and not KnotSecurity().slipped(None, drawn_in)
+    # the loaded end paid out while the tails stay is the knot changing shape, not rope through it
+    reshaped = log.assign(tail_a=0.3, tail_b=0.3)
+    ctx = {"load": "pulses", "pulse_period": 1.0, "n_pulses": 5, "spill_distance": 0.01}
+    assert KnotSecurity().metrics(_Ctx(**ctx), reshaped)["cycles_to_spill"] is None
+    assert KnotSecurity().metrics(_Ctx(**ctx, slip_rule="loaded_end"), reshaped)["cycles_to_spill"] == 5
 
 
 def test_tail_length_follows_a_rope_sliding_through_continuously():

@@ -17,16 +17,26 @@ Stages (times from the end of any ``settle_time``):
    clamped end to it, in the mode ``load``:
 
    * ``"ramp"``: a force growing from ``hold_tension`` at ``load_rate`` (N/s) until the end runs away
-     (its speed above ``runaway_speed`` for 0.5 s after the ``transient``): the **slip load** is the
-     force at the onset;
+     (its speed above ``runaway_speed`` for 0.5 s, watched from ``detect_after`` s into the load, 0 by
+     default: from its first instant): the **slip load** is the force at the onset; the **slow-slip
+     load** is where rope begins to pass through the knot faster than ``slip_speed`` for 0.5 s;
    * ``"hold"``: a force rising to ``hold_load`` (N) over ``transient`` s, then held: the drift of
      the pulled end and of the tails over the rest of the stage says whether the knot holds;
    * ``"slide"``: the end moves at ``pull_speed`` (m/s): the mean force over the second half is the
      **sliding resistance**;
    * ``"pulses"``: ``n_pulses`` triangular pulses from ``hold_tension`` up to ``pulse_load`` (N) and
      back, ``pulse_period`` s each (a jerk test): the knot has **spilled** after the first pulse at
-     whose end the loaded end is more than ``spill_distance`` (m) further out than where the load
+     whose end more than ``spill_distance`` (m) of rope has passed through the knot since the load
      began (``cycles_to_spill``).
+
+**One slip rule** (``slip_rule = "through"``): a slip is rope passing through the knot, which pays
+the loaded end out and draws the tails in by about as much; the lesser of the two measures it (the
+slow slip's speed, the hold's drift, the pulses' spill). The loaded end let out while the tails stay
+(the standing part stretching, the knot changing shape) and the tails drawn in while the loaded end
+stays (the knot drawing up) are no slip; a one-rope knot has no free tails, its loaded ends decide.
+``slip_rule = "loaded_end"`` reads the loaded end alone for the slow slip and the spill, and
+``detect_after = 1`` starts the ramp's detection 1 s into the load: the rules of the studies recorded
+before this one.
 
 **One-rope knots** (the single-rope reef and granny of the seed study, ``single_rod_reef`` and
 ``single_rod_granny``): the node of the knot's ``held`` hint (the bottom of the first overhand's
@@ -55,10 +65,10 @@ knot still changed over the last ``set_still_window`` of the set hold, 0.5 s, a 
 and ``set_still`` (``|set_creep|`` at most
 ``set_still_rate``, 0.5 mm/s; false: the knot was still moving when the set ended, it was loaded
 before it was set, and the summary's notes say so); then by mode ``slip_load`` (N), ``slip_load_norm`` and ``slip_onset`` (ramp: the run-away;
-``slow_slip_load`` and ``slow_slip_onset``: the loaded end moving faster than ``slip_speed`` for
-0.5 s, a slow slip that may come well before the run-away, with ``slow_slip_during_transient``;
-``slip_during_transient``: the end was already running away when the detection began, after the
-``transient``, so the slip load is at most the value given),
+``slow_slip_load`` and ``slow_slip_onset``: rope passing through the knot faster than ``slip_speed``
+for 0.5 s, a slow slip that may come well before the run-away, with ``slow_slip_during_transient``;
+``slip_during_transient``: the end was already running away when the detection began,
+``detect_after`` s into the load, so the slip load is at most the value given),
 ``drift_pull``, ``drift_tails`` (m over the hold after its rise) and their rates (m/s), and
 ``drift_pull_late``, ``drift_tails_late`` with their rates over the second half of the hold (the
 tails' drift positive when drawn into the knot, their lengths interpolated along the edge where they
@@ -82,6 +92,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pandas as pd
 
 from knotsim.errors import ConfigError
 from knotsim.protocols.base import Decision, RunContext, end_group_nodes, unit
@@ -103,6 +114,7 @@ from knotsim.protocols.two_rope_bend import (
 __all__ = ["KnotSecurity"]
 
 LOAD_MODES = ("ramp", "hold", "slide", "pulses")
+SLIP_RULES = ("through", "loaded_end")
 #: Capsizing (a bend turning into another form under load, e.g. a reef into two lark's heads round a
 #: rope pulled straight): one rope's turning in the knot below ``CAPSIZE_STRAIGHT`` (rad, nearly
 #: straight) while the other's is at least ``CAPSIZE_WRAPPED`` (still round it) and the ropes touch,
@@ -179,7 +191,11 @@ class KnotSecurity(TwoRopeBend):
                                   # set_hold_max), found by a preliminary run of the set stage
         "set_hold_max": 20.0,  # s (set_until_still)
         "set_still_window": 0.5,  # s over which the rope in the knot must change slower than set_still_rate
-        "transient": 1.0,      # s at the start of the load stage left out of the slip detection
+        "transient": 1.0,      # s: the hold's rise to hold_load; the hold's drift is measured after it
+        "detect_after": 0.0,   # s into the load before the ramp's slip detection starts (0: from the first
+                               # instant, resolved down to the hold tension)
+        "slip_rule": "through",  # "through": a slow slip is rope passing through the knot (the loaded end out
+                                 # and the tails in); "loaded_end": the loaded end's speed alone (before 0.2)
         "stop_at_decision": True,  # end the run stop_margin s after its outcome is decided
         "stop_margin": 1.0,    # s the run goes on after the decision (stop_at_decision)
         "output_interval": 0.1,
@@ -196,6 +212,8 @@ class KnotSecurity(TwoRopeBend):
         mode = p["load"]
         if mode not in LOAD_MODES:
             raise ConfigError("load", f"must be one of {', '.join(LOAD_MODES)}, got {mode!r}")
+        if p["slip_rule"] not in SLIP_RULES:
+            raise ConfigError("slip_rule", f"must be one of {', '.join(SLIP_RULES)}, got {p['slip_rule']!r}")
         t_set_ramp = _positive(p, "set_ramp")
         t_set = t_set_ramp + _positive(p, "set_hold", allow_zero=True)
         t_relax = _positive(p, "relax_time")
@@ -546,7 +564,7 @@ class KnotSecurity(TwoRopeBend):
             out["decidable"] = False
             return out
         t = np.asarray(log["time"], float)
-        t_skip = float(p["transient"])
+        t_skip = float(p["transient"]) if p["load"] != "ramp" else float(p["detect_after"])
         after = t >= t_skip
         out["load_time"] = float(t[-1])
         out.update(_capsize_metrics(ctx, log, t))
@@ -562,13 +580,15 @@ class KnotSecurity(TwoRopeBend):
             return out
         k, ks = _slip_onsets(p, log, t)
         speed = _pull_speed(log, t)
+        slow = _through_speed(p, log, t)
         f = np.asarray(log["F"], float)
         out["slip_onset"] = (None if k is None else
                              {"time": float(t[k]), "force": float(f[k]), "criterion": "runaway"})
         out["slow_slip_onset"] = (None if ks is None else
-                                  {"time": float(t[ks]), "force": float(f[ks]), "criterion": "slip_speed"})
+                                  {"time": float(t[ks]), "force": float(f[ks]),
+                                   "criterion": "through" if p["slip_rule"] == "through" else "slip_speed"})
         out["slow_slip_during_transient"] = bool(ks is not None and ks == int(np.argmax(after))
-                                                 and np.any(~after[:ks + 1] & (speed[:ks + 1] > float(p["slip_speed"]))))
+                                                 and np.any(~after[:ks + 1] & (slow[:ks + 1] > float(p["slip_speed"]))))
         out["decidable"] = bool(t[-1] - t_skip >= 0.5)
         # a run-away already under way when the detection starts (at the end of the transient): the
         # slip load is then at most the load there, not that load
@@ -632,14 +652,32 @@ def _pull_speed(log, t: np.ndarray) -> np.ndarray:
     return np.gradient(u, t) if len(t) > 2 else np.zeros_like(u)
 
 
+def _through_speed(p, log, t: np.ndarray) -> np.ndarray:
+    """The speed (m/s) at which rope passes through the knot, the quantity of the slow slip: with
+    ``slip_rule = "through"`` the lesser of the loaded end's outward speed and the tails' draw-in
+    speed (each from its length averaged over 0.5 s: rope through the knot pays the loaded end out and
+    draws the tails in by as much; the loaded end stretching alone, or the tails drawn in while it
+    stays, is no slip), the loaded end's speed for a one-rope knot (no free tails) and with
+    ``slip_rule = "loaded_end"``."""
+    speed = _pull_speed(log, t)
+    if p["slip_rule"] != "through" or "tail_a" not in log.columns or len(t) <= 2:
+        return speed
+    tails = np.asarray(log["tail_a"], float) + np.asarray(log["tail_b"], float)
+    if not np.all(np.isfinite(tails)):  # a one-rope knot
+        return speed
+    drawn_in = -np.gradient(moving_average(pd.DataFrame({"time": t, "y": tails}), "y", 0.5), t)
+    return np.minimum(speed, drawn_in)
+
+
 def _slip_onsets(p, log, t: np.ndarray) -> tuple[int | None, int | None]:
     """Rows of the load stage's log (``t`` s since the load began) where the loaded end began to run
-    away (faster than ``runaway_speed``) and to slip slowly (faster than ``slip_speed``) for
-    :data:`SUSTAIN` s after the ``transient``; ``None`` where it did not."""
-    after = t >= float(p["transient"])
-    speed = _pull_speed(log, t)
-    k = sustained_onset(t, after & (speed > float(p["runaway_speed"])), SUSTAIN)
-    ks = sustained_onset(t, after & (speed > float(p["slip_speed"])), SUSTAIN)
+    away (faster than ``runaway_speed``: the knot let go) and where rope began to pass through the
+    knot faster than ``slip_speed`` (:func:`_through_speed`: the slow slip), each sustained for
+    :data:`SUSTAIN` s, from ``detect_after`` s into the load in a ramp (0: from its first instant)
+    and after the ``transient`` (the rise) in the other modes; ``None`` where it did not happen."""
+    after = t >= float(p["detect_after"] if p["load"] == "ramp" else p["transient"])
+    k = sustained_onset(t, after & (_pull_speed(log, t) > float(p["runaway_speed"])), SUSTAIN)
+    ks = sustained_onset(t, after & (_through_speed(p, log, t) > float(p["slip_speed"])), SUSTAIN)
     return k, ks
 
 
@@ -668,8 +706,13 @@ def _pulse_metrics(p, log, t) -> dict:
     ``None``: it never was; an end drawn in is the knot settling, not spilling)."""
     period, n, spill = float(p["pulse_period"]), int(p["n_pulses"]), float(p["spill_distance"])
     u = np.asarray(log["u_pull"], float)
+    u = u - u[0]
+    if p["slip_rule"] == "through" and "tail_a" in log.columns:
+        tails = np.asarray(log["tail_a"], float) + np.asarray(log["tail_b"], float)
+        if np.all(np.isfinite(tails)):  # a bend: the rope through the knot, the lesser of out and in
+            u = np.minimum(u, tails[0] - tails)
     ends = [i * period for i in range(1, n + 1) if i * period <= t[-1] + 1e-9]
-    moved = [float(np.interp(te, t, u) - u[0]) for te in ends]
+    moved = [float(np.interp(te, t, u)) for te in ends]
     spilled = next((i + 1 for i, m in enumerate(moved) if m > spill), None)  # pulled out, not drawn in
     return {"pulse_drift": moved, "pulses_done": len(ends), "cycles_to_spill": spilled,
             "decidable": len(ends) == n or spilled is not None,

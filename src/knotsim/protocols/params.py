@@ -106,6 +106,11 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "set_until_still": ("true/false", "knot security: hold the set until the knot stops moving (at least "
                                       "set_hold, at most set_hold_max; found by a preliminary run of the set)"),
     "set_hold_max": ("s", "knot security, set_until_still: the longest set hold"),
+    "detect_after": ("s", "knot security, ramp: time into the load before slip detection starts (0: from the first "
+                          "instant, so slip loads are resolved down to the hold tension)"),
+    "slip_rule": ("text", "knot security: 'through' (a slow slip, a spill: rope passing through the knot, the loaded "
+                          "end out and the tails in, the lesser of the two) or 'loaded_end' (the loaded end alone, "
+                          "the rule of the studies before it)"),
     "stop_at_decision": ("true/false", "knot security: end the run stop_margin s after its outcome is decided (the "
                                        "loaded end ran away, the ropes came apart, capsized, spilled)"),
     "stop_margin": ("s", "knot security: simulated time the run goes on after its decision (stop_at_decision)"),
@@ -132,7 +137,7 @@ PARAM_RANGES: dict[str, str] = {
     "hold_tension": ">=0", "relax_time": ">0", "load_rate": ">0", "hold_load": ">0", "load_time": ">=0",
     "slip_speed": ">0", "hold_drift": ">0", "pulse_load": ">0", "pulse_period": ">0", "n_pulses": "int>=1",
     "spill_distance": ">0", "set_still_rate": ">0", "set_hold_max": ">0", "set_still_window": ">0",
-    "stop_margin": ">=0",
+    "stop_margin": ">=0", "detect_after": ">=0",
 }
 _RANGE_TEXT = {">0": "a positive number", ">=0": "a non-negative number", "int>=1": "a positive integer",
                "int>=3": "an integer >= 3", "poisson": "a number in (-1, 0.5]"}
