@@ -32,7 +32,9 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 OVERRIDES = {"mu": 0.3, "n_nodes": 201, "dt": 2.5e-3, "set_tension": 0.01, "set_ramp": 1.0, "set_hold": 3.0,
              "hold_tension": 0.001, "relax_time": 0.5, "load": "ramp", "load_rate": 0.002, "load_time": 10.0,
-             "output_interval": 0.25}
+             "output_interval": 0.25,
+             # the protocol's defaults when this report was recorded (they changed since: CHANGELOG)
+             "set_until_still": False, "stop_at_decision": False, "slip_rule": "loaded_end", "detect_after": 1.0}
 KNOTS = ["reef_bend", "granny_bend", "thief_bend", "grief_bend"]
 #: s into the load at which the picture shows the ropes
 SNAPSHOTS = (0.0, 3.0, 4.2, 4.8)

@@ -26,7 +26,9 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 ROOT = Path(__file__).resolve().parents[1]
 OVERRIDES = {"n_nodes": 201, "dt": 2.5e-3, "set_tension": 0.01, "set_ramp": 1.0, "set_hold": 3.0,
-             "hold_tension": 0.001, "relax_time": 0.5, "output_interval": 0.25}
+             "hold_tension": 0.001, "relax_time": 0.5, "output_interval": 0.25,
+             # the protocol's defaults when these brackets were recorded (they changed since: CHANGELOG)
+             "set_until_still": False, "stop_at_decision": False, "slip_rule": "loaded_end", "detect_after": 1.0}
 MU_LOW, MU_HIGH, TOL = 0.1, 0.6, 0.05
 DRIFT_LIMIT = 1e-3  # m of rope through the knot over the hold's second half (the library's default)
 
