@@ -233,22 +233,35 @@ def test_decision_is_the_earliest_of_run_away_apart_capsize_and_spill():
     assert ks_.decision(_Ctx(), _log(one_rope=True)) is None
 
 
-def test_set_until_still_holds_the_set_until_the_knot_stops_moving():
-    """set_until_still: a preliminary run finds when the rope in the knot stops changing; the run
-    holds its set that long, and its own measure of the set agrees that the knot had stopped."""
+def test_set_until_still_holds_the_set_until_the_knot_stops_moving(tmp_path):
+    """set_until_still: one run, built with the longest set, finds when the rope in the knot stops
+    changing and goes on as if built with that set (no preliminary run): its own measure of the set
+    agrees that the knot had stopped, its stages and run.toml give the set found, and run.toml
+    replays it to the same state, bit for bit."""
+    from knotsim.io.checkpoint import read_checkpoint
+
     ov = {"set_hold": 0.2, "set_hold_max": 10.0, "load_time": 0.4, "transient": 0.1}
-    res = ks.run_protocol("knot-security", "reef_bend", quick=True, overrides={**ov, "set_until_still": True})
+    res = ks.run_protocol("knot-security", "reef_bend", quick=True, out_dir=tmp_path / "run",
+                          overrides={**ov, "set_until_still": True})
     m, found = res["metrics"], res["metrics"]["set_until_still"]
-    assert found["still"] and found["preliminary_failure"] is None
-    assert 0.2 <= found["set_hold"] < 10.0 and abs(found["rate"]) <= 5e-4
+    assert found["still"] and 0.2 <= found["set_hold"] < 10.0 and abs(found["rate"]) <= 5e-4
     assert res["parameters"]["set_hold"] == found["set_hold"] == m["set_hold"]
     assert m["set_still"] is True and m["set_creep"] == found["rate"]  # the run's own window: the same samples
-    # a cap too short to reach stillness: the set lasts set_hold_max and the notes say why
+    stages = {st["name"]: (st["start"], st["end"]) for st in res["timeline"]["stages"]}
+    assert stages["set"][1] == 0.3 + found["set_hold"]  # quick set_ramp 0.3: exactly, the step it was found at
+    assert res.log["time"].iloc[-1] == pytest.approx(0.3 + found["set_hold"] + 0.2 + 0.4)
+    assert res["timeline"]["stopped"] is None and res["valid"] is True
+    spec = ks.RunSpec.load(tmp_path / "run" / "run.toml")
+    assert {b["name"]: b for b in spec.data["bc"]}["set_pull"]["stop"] == stages["set"][1]
+    replay = ks.run(spec)
+    np.testing.assert_array_equal(replay.state.q, read_checkpoint(tmp_path / "run" / "checkpoint.npz").state(None).q)
+    # a cap too short to reach stillness: the set lasts set_hold_max and the warnings say why
     capped = ks.run_protocol("knot-security", "reef_bend", quick=True,
                              overrides={**ov, "set_until_still": True, "set_hold_max": 0.25})
     rec = capped["metrics"]["set_until_still"]
     assert not rec["still"] and rec["set_hold"] == 0.25 and capped["parameters"]["set_hold"] == 0.25
     assert any("still moving after set_hold_max" in n for n in capped["notes"])
+    assert capped["valid"] is False and capped["outcome"].endswith("; loaded before it was set")
     with pytest.raises(ConfigError, match="^set_hold_max:"):
         ks.run_protocol("knot-security", "reef_bend", quick=True,
                         overrides={**ov, "set_until_still": True, "set_hold": 2.0, "set_hold_max": 1.0})

@@ -268,6 +268,24 @@ class BoundaryConditions(GripMethods):
             raise ConfigError(f"bc.{name}.release", f"release time {at} s is not after the start {g.start} s")
         g.stop = at
 
+    def retime(self, name: str, start: float, stop: float, now: float) -> None:
+        """Move group ``name``'s window to ``[start, stop)`` (s) at time ``now`` (s), during a run: a
+        group already acting keeps its start and may only end, at ``now`` or later; a group not yet
+        acting may start at ``now`` or later (a stage whose length a run decides as it goes, e.g. a
+        knot's set held until the knot stops moving). Forces and paths count their time from the
+        (new) start."""
+        if name not in self.groups:
+            raise ConfigError("retime", f"no boundary condition named {name!r}; known: {sorted(self.groups)}")
+        g = self.groups[name]
+        start, stop = self._check_window(name, start, stop)
+        if g.start - _EPS_T <= now:  # acting or done: its past stays as it was
+            if start != g.start or stop < now - _EPS_T:
+                raise ConfigError(f"bc.{name}.start", f"group {name!r} began at {g.start} s, before t = {now} s: "
+                                                      "only its stop can move, to t or later")
+        elif start < now - _EPS_T:
+            raise ConfigError(f"bc.{name}.start", f"cannot start group {name!r} at {start} s, before t = {now} s")
+        g.start, g.stop = start, stop
+
     # ------------------------------------------------------------------ evaluation
     def _plan(self, g: Group) -> _Plan:
         p = g.plan

@@ -22,7 +22,7 @@ import pandas as pd
 from knotsim.errors import ConfigError
 from knotsim.protocols.params import Params
 
-__all__ = ["SUMMARY_KEYS", "Decision", "LoadingProtocol", "ProtocolResult", "RunContext", "end_group_nodes",
+__all__ = ["SUMMARY_KEYS", "Decision", "LoadingProtocol", "Phase", "ProtocolResult", "RunContext", "end_group_nodes",
            "stage_duration", "unit"]
 
 
@@ -30,6 +30,25 @@ __all__ = ["SUMMARY_KEYS", "Decision", "LoadingProtocol", "ProtocolResult", "Run
 SUMMARY_KEYS = ("protocol", "knot", "knot_kind", "geometry", "parameters", "friction_model", "EI", "valid",
                 "warnings", "metrics", "outcome", "knot_status", "run_status", "timeline", "topology", "contact", "wall_time",
                 "sim_time", "n_steps", "newton_iterations", "failed_attempts", "notes", "knotsim_version", "out_dir")
+
+
+class Phase:
+    """A stage of a run whose end the run decides (:meth:`LoadingProtocol.phase`).
+
+    ``build_overrides``: the parameters the run is built with while the phase lasts (its longest
+    form); :meth:`observe` sees every step (``t`` s of run time, the protocol's log row) and returns
+    the parameters it decided once the phase is over (``None`` until then); :attr:`record` (a dict,
+    kept in the metrics) and :attr:`notes` say what it found."""
+
+    build_overrides: dict[str, Any] = {}
+
+    def __init__(self) -> None:
+        self.record: dict[str, Any] = {}
+        self.notes: list[str] = []
+        self.done = False
+
+    def observe(self, t: float, row: dict[str, Any]) -> dict[str, Any] | None:
+        raise NotImplementedError
 
 
 @dataclass(frozen=True)
@@ -168,12 +187,13 @@ class LoadingProtocol:
         """Whether the metrics say the knot slipped (used in the outcome)."""
         return False
 
-    def adapt(self, ctx: RunContext, build) -> dict | None:
-        """Settings that a preliminary run decides before the run itself (e.g. how long a set must
-        last for the knot to stop moving): ``None`` (default: none), or ``{"overrides": {...},
-        "record": {...}, "notes": [...]}``; the run is then built again with ``overrides`` added, and
-        ``record`` is kept in ``ctx.data["adapted"]``. ``build(extra)`` returns ``(protocol, ctx,
-        spec, notes)`` of this run with the overrides ``extra`` added (for the preliminary run)."""
+    def phase(self, ctx: RunContext) -> Phase | None:
+        """A stage whose length the run decides as it goes (e.g. ``knot-security``'s set, held until
+        the knot stops moving): a :class:`Phase`, or ``None`` (default: none). The run is built with
+        the phase's :attr:`Phase.build_overrides` (its longest form), every step's :meth:`record` row is
+        handed to :meth:`Phase.observe`, and when that returns the settings it decided, the run goes
+        on as if built with them (its boundary conditions retimed, ``run.toml`` rewritten): one
+        simulation, no preliminary run."""
         return None
 
     def notes(self, ctx: RunContext, metrics: dict) -> list[str]:

@@ -95,7 +95,7 @@ import numpy as np
 import pandas as pd
 
 from knotsim.errors import ConfigError
-from knotsim.protocols.base import Decision, RunContext, end_group_nodes, unit
+from knotsim.protocols.base import Decision, Phase, RunContext, end_group_nodes, unit
 from knotsim.protocols.geometry import default_ends, parse_end
 from knotsim.protocols.metrics import moving_average, sustained_onset, window_mean
 from knotsim.protocols.timeline import measured_log, pull_start
@@ -111,7 +111,7 @@ from knotsim.protocols.two_rope_bend import (
     turning_in_knot,
 )
 
-__all__ = ["KnotSecurity"]
+__all__ = ["KnotSecurity", "SetUntilStill"]
 
 LOAD_MODES = ("ramp", "hold", "slide", "pulses")
 SLIP_RULES = ("through", "loaded_end")
@@ -131,8 +131,74 @@ SUSTAIN = 0.5
 NOT_SET = "loaded before it was set"
 
 
-class _SetIsStill(Exception):
-    """Ends the preliminary run of ``set_until_still`` once the knot has stopped moving."""
+class SetUntilStill(Phase):
+    """The set held until the knot stops moving (``set_until_still``): the run is built with the set
+    held for ``set_hold_max``; the rope in the knot (the log's ``in_knot``) is read after every step,
+    and from ``set_hold`` into the hold on, every :data:`STILL_CHECK` s, the first time its rate of
+    change over the last ``set_still_window`` s (a least-squares line through those samples, the
+    run's own ``set_creep``) and over the window before it are both at most ``set_still_rate`` ends
+    the set there (one window alone can catch a turning point of a knot still working itself in and
+    out): the run goes on as if built with that ``set_hold``, which ``run.toml`` and the summary give
+    (``metrics["set_until_still"]`` records the search). A knot still moving after ``set_hold_max``
+    is loaded then, and said to be."""
+
+    def __init__(self, p, t_settle: float):
+        super().__init__()
+        self.hold_min, self.hold_max = float(p["set_hold"]), float(p["set_hold_max"])
+        self.window, self.rate_limit = float(p["set_still_window"]), float(p["set_still_rate"])
+        if self.hold_max < self.hold_min:
+            raise ConfigError("set_hold_max", f"must be at least set_hold = {self.hold_min:g} s, got "
+                                              f"{self.hold_max:g}")
+        self.set_ramp, self.t_settle = float(p["set_ramp"]), t_settle
+        self.t_hold = t_settle + self.set_ramp  # s: the set hold begins
+        self.t_first = max(0.0, self.t_hold + self.hold_min - 2.0 * self.window)
+        self.next_check = self.t_hold + self.hold_min
+        self.times: list[float] = []
+        self.in_knot: list[float] = []
+        self.rate = math.nan
+        self.build_overrides = {"set_hold": self.hold_max}
+        self.record = {"set_hold": self.hold_max, "still": False, "rate": math.nan, "set_hold_max": self.hold_max}
+
+    def _set_end(self, hold: float) -> float:
+        """The run time (s) at which a set held ``hold`` s ends, summed as the run description sums it."""
+        end = self.set_ramp + hold
+        return end + self.t_settle if self.t_settle else end
+
+    def observe(self, t: float, row: dict) -> dict | None:
+        if self.done or t < self.t_first - 1e-9:
+            return None
+        if t > self.t_hold + self.hold_max + 1e-9:  # the cap: loaded before it was set
+            self.done = True
+            self.notes.append(f"set_until_still: the knot was still moving after set_hold_max = {self.hold_max:g} s "
+                              f"of set (the rope in it changing at {1e3 * self.rate:+.3g} mm/s); it is loaded before "
+                              "it was set")
+            return None
+        self.times.append(t)
+        self.in_knot.append(float(row["in_knot"]))
+        if t < self.next_check - 1e-9:
+            return None
+        self.next_check = t + STILL_CHECK
+        tt, ink = np.asarray(self.times), np.asarray(self.in_knot)
+        w = min(self.window, t - self.t_hold)
+        recent = tt >= t - w - 1e-9
+        before = (tt >= t - 2.0 * w - 1e-9) & (tt <= t - w + 1e-9)
+        if np.count_nonzero(recent) < 3:
+            return None
+        self.rate = float(np.polyfit(tt[recent], ink[recent], 1)[0])
+        self.record["rate"] = self.rate
+        if not (abs(self.rate) <= self.rate_limit and np.count_nonzero(before) >= 3
+                and abs(float(np.polyfit(tt[before], ink[before], 1)[0])) <= self.rate_limit):
+            return None
+        # still over this window and the one before it: the set ends now, at exactly this step's time
+        hold = t - self.t_hold
+        for _ in range(64):
+            end = self._set_end(hold)
+            if end == t:
+                break
+            hold = math.nextafter(hold, math.inf if end < t else -math.inf)
+        self.done = True
+        self.record.update(set_hold=hold, still=True)
+        return {"set_hold": hold}
 
 
 def pulse_load(t_load: float, base: float, peak: float, period: float, n: int) -> float:
@@ -188,7 +254,7 @@ class KnotSecurity(TwoRopeBend):
         "set_still_rate": 5e-4,  # m/s: the rope in the knot changing faster than this at the end of the
                                  # set hold = the knot was still moving, not set (a quarter of slip_speed)
         "set_until_still": True,  # hold the set until the knot stops moving (at least set_hold, at most
-                                  # set_hold_max), found by a preliminary run of the set stage
+                                  # set_hold_max), found as the run goes
         "set_hold_max": 20.0,  # s (set_until_still)
         "set_still_window": 0.5,  # s over which the rope in the knot must change slower than set_still_rate
         "transient": 1.0,      # s: the hold's rise to hold_load; the hold's drift is measured after it
@@ -380,87 +446,12 @@ class KnotSecurity(TwoRopeBend):
                 "tail_b": outside[3], "rope_gap": rope_gap(ropes), "in_knot": max(total - float(sum(outside)), 0.0),
                 "turn_a": turn[0], "turn_b": turn[1]}
 
-    def adapt(self, ctx: RunContext, build) -> dict | None:
-        """With ``set_until_still``: how long the set must be held for the knot to stop moving, found
-        by a preliminary run of the set stage alone (held for up to ``set_hold_max``): the rope in the
-        knot is measured after every step, and from ``set_hold`` into the hold on, every
-        ``STILL_CHECK`` s, the first time its rate of change over the last ``set_still_window`` s (a
-        least-squares line through those samples, the run's own ``set_creep``) and over the window
-        before it are both at most ``set_still_rate`` ends the set (one window alone can catch a
-        turning point of a knot still working itself in and out). The run itself then holds the set that long (its
-        ``set_hold``; ``metrics["set_until_still"]`` records the search)."""
+    def phase(self, ctx: RunContext) -> SetUntilStill | None:
+        """With ``set_until_still``: the set, held until the knot stops moving (:class:`SetUntilStill`)."""
         p = ctx.params
         if not isinstance(p["set_until_still"], bool):
             raise ConfigError("set_until_still", f"must be true or false, got {p['set_until_still']!r}")
-        if not p["set_until_still"]:
-            return None
-        import time
-
-        from knotsim.errors import SimulationError
-        from knotsim.runspec import build_run, check_run
-
-        hold_min = _positive(p, "set_hold", allow_zero=True)
-        hold_max = _positive(p, "set_hold_max")
-        window = _positive(p, "set_still_window")
-        rate_limit = _positive(p, "set_still_rate")
-        if hold_max < hold_min:
-            raise ConfigError("set_hold_max", f"must be at least set_hold = {hold_min:g} s, got {hold_max:g}")
-        wall0 = time.perf_counter()
-        proto, pctx, spec, _ = build({"set_hold": hold_max})
-        sim, cfg = build_run(check_run(spec))
-        pctx.model = cfg.model
-        proto.prepare(pctx)
-        t_hold = float(pctx.data.get("t_settle", 0.0)) + float(p["set_ramp"])  # the set hold begins
-        t_first = max(0.0, t_hold + hold_min - 2.0 * window)
-        times: list[float] = []
-        in_knot: list[float] = []
-        found: float | None = None  # the hold found (s)
-        rate = math.nan  # the rope in the knot's last rate (m/s)
-        next_check = t_hold + hold_min  # s
-
-        def watch(s, res):
-            # the rope in the knot after every step (the run's own log has the same samples), its rate
-            # checked every STILL_CHECK s over the window the run's set_creep reads
-            nonlocal found, rate, next_check
-            t = float(s.state.time)
-            if t < t_first - 1e-9:
-                return
-            times.append(t)
-            in_knot.append(proto.record(pctx, s.state.q, t, {})["in_knot"])
-            if t < next_check - 1e-9:
-                return
-            next_check = t + STILL_CHECK
-            tt = np.asarray(times)
-            w = min(window, t - t_hold)
-            recent = tt >= t - w - 1e-9
-            before = (tt >= t - 2.0 * w - 1e-9) & (tt <= t - w + 1e-9)
-            if np.count_nonzero(recent) >= 3:
-                rate = float(np.polyfit(tt[recent], np.asarray(in_knot)[recent], 1)[0])
-                # still over this window and the one before it: not a turning point of a knot still
-                # working itself in and out
-                if abs(rate) <= rate_limit and np.count_nonzero(before) >= 3 and abs(
-                        float(np.polyfit(tt[before], np.asarray(in_knot)[before], 1)[0])) <= rate_limit:
-                    found = t - t_hold
-                    raise _SetIsStill
-
-        failure = None
-        try:
-            sim.advance(t_hold + hold_max, watch)
-        except _SetIsStill:
-            pass
-        except SimulationError as exc:
-            failure = f"{exc}"
-        hold = found if found is not None else hold_max
-        record = {"set_hold": hold, "still": found is not None, "rate": rate, "set_hold_max": hold_max,
-                  "preliminary_wall_time": time.perf_counter() - wall0, "preliminary_failure": failure}
-        notes = []
-        if failure is not None:
-            notes.append(f"set_until_still: the preliminary run of the set failed ({failure}); the set is held "
-                         f"for set_hold_max = {hold_max:g} s")
-        elif found is None:
-            notes.append(f"set_until_still: the knot was still moving after set_hold_max = {hold_max:g} s of set "
-                         f"(the rope in it changing at {1e3 * rate:+.3g} mm/s); it is loaded before it was set")
-        return {"overrides": {"set_hold": hold}, "record": record, "notes": notes}
+        return SetUntilStill(p, float(ctx.data.get("t_settle", 0.0))) if p["set_until_still"] else None
 
     def verdict(self, ctx: RunContext, metrics: dict) -> str | None:
         """``capsized`` when a rope was pulled straight through the knot while the other still went

@@ -23,6 +23,9 @@ COMMON_DEFAULTS: dict[str, Any] = {
     "youngs_modulus": 0.18e6,  # E, Pa
     "density": 1180.0,        # rho, kg/m^3
     "poisson_ratio": 0.5,
+    "bending_stiffness": None,  # EI, N m^2 (None: the solid rod's E pi h^4 / 4)
+    "torsional_stiffness": None,  # GJ, N m^2 (None: the solid rod's G pi h^4 / 2)
+    "rope": "",               # a rope preset (knotsim ropes) setting the material and friction ("": none)
     "damping": 0.01,          # viscosity eta, Pa s (force -eta v l_voronoi)
     "gravity": 0.0,           # m/s^2 along -z (0: no gravity)
     "mu": 0.1,                # Coulomb friction coefficient
@@ -46,6 +49,12 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "youngs_modulus": ("Pa", "Young's modulus E"),
     "density": ("kg/m^3", "mass density rho"),
     "poisson_ratio": ("-", "Poisson ratio (shear modulus G = E / (2 (1 + nu)))"),
+    "bending_stiffness": ("N m^2", "bending stiffness EI, independent of the axial stiffness E pi h^2 (none: the solid "
+                                   "rod's E pi h^4 / 4)"),
+    "torsional_stiffness": ("N m^2", "torsional stiffness GJ (none: the solid rod's G pi h^4 / 2)"),
+    "rope": ("text", "a rope preset (knotsim ropes lists them): sets radius, density, youngs_modulus (its EA / "
+                     "pi h^2), bending_stiffness, torsional_stiffness, mu and, with the elastic-stick law, "
+                     "contact.mu_static; a key given with --set wins (empty: none)"),
     "damping": ("Pa s", "viscosity eta of the viscous force -eta v l_voronoi"),
     "gravity": ("m/s^2", "gravitational acceleration along -z (0: none)"),
     "mu": ("-", "Coulomb friction coefficient"),
@@ -104,7 +113,7 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "set_still_rate": ("m/s", "knot security: the rope in the knot changing faster than this at the end of the "
                               "set = the knot was still moving, not set"),
     "set_until_still": ("true/false", "knot security: hold the set until the knot stops moving (at least "
-                                      "set_hold, at most set_hold_max; found by a preliminary run of the set)"),
+                                      "set_hold, at most set_hold_max; found as the run goes)"),
     "set_hold_max": ("s", "knot security, set_until_still: the longest set hold"),
     "detect_after": ("s", "knot security, ramp: time into the load before slip detection starts (0: from the first "
                           "instant, so slip loads are resolved down to the hold tension)"),
@@ -129,6 +138,7 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
 PARAM_RANGES: dict[str, str] = {
     "n_nodes": "int>=3", "radius": ">0", "length": ">0", "youngs_modulus": ">0", "density": ">0",
     "poisson_ratio": "poisson", "damping": ">=0", "mu": ">=0", "dt": ">0", "duration": ">0",
+    "bending_stiffness": ">0", "torsional_stiffness": ">0",
     "output_interval": ">0", "geometry_scale": ">0", "ramp_time": ">=0", "settle_time": ">=0", "pull_speed": ">0", "e_final": ">0",
     "mean_window": ">0", "hold_time": ">=0", "hold_nodes": "int>=1", "pre_pull": ">=0",
     "pre_pull_speed": ">0", "transient": ">=0", "loose_factor": ">0", "loose_bend_radius": ">0", "pull_length": ">0",
@@ -288,7 +298,8 @@ def resolve_params(defaults: Mapping[str, Any], *layers: Mapping[str, Any] | Non
         else:
             values[k] = v
     tables = {"contact": (contact, _contact_keys()), "solver": (solver, _solver_keys())}
-    for layer in layers:
+    set_at: dict[str, int] = {}  # the last layer that set each key (a rope preset gives way to it)
+    for index, layer in enumerate(layers):
         for key, val in _flatten_tables(layer or {}).items():
             if not isinstance(key, str):
                 raise ConfigError(str(key), "override keys must be strings")
@@ -308,8 +319,46 @@ def resolve_params(defaults: Mapping[str, Any], *layers: Mapping[str, Any] | Non
             else:
                 raise ConfigError(key, f"unknown parameter; known: {', '.join(sorted(values))}, "
                                        "contact.<setting>, solver.<setting>")
+            set_at[key] = index
+    if values.get("rope"):
+        _apply_rope(values, contact, set_at)
     check_param_ranges(values)
     return Params(values, contact, solver)
+
+
+#: Parameters a rope preset sets (``rope``); ``contact.mu_static`` only with the elastic-stick law.
+ROPE_KEYS = ("radius", "density", "youngs_modulus", "bending_stiffness", "torsional_stiffness", "mu",
+             "contact.mu_static")
+
+
+def rope_values(name: str) -> dict[str, float]:
+    """The parameters (:data:`ROPE_KEYS`) the rope preset ``name`` sets: radius (m), density
+    (kg/m^3, its linear density over pi h^2), youngs_modulus (Pa, its EA over pi h^2),
+    bending_stiffness and torsional_stiffness (N m^2), mu and contact.mu_static. An unknown name
+    raises :class:`ConfigError` naming ``rope`` and listing the presets."""
+    from knotsim.rods.ropes import get_rope
+
+    p = get_rope(name)
+    return {"radius": p.radius, "density": p.density, "youngs_modulus": p.youngs_modulus,
+            "bending_stiffness": p.EI, "torsional_stiffness": p.GJ, "mu": p.mu, "contact.mu_static": p.mu_static}
+
+
+def _apply_rope(values: dict[str, Any], contact: dict[str, Any], set_at: Mapping[str, int]) -> None:
+    """Set the rope preset ``values["rope"]``'s parameters, except those given in the layer that
+    named the rope or in a later one (an explicit ``--set`` wins); ``contact.mu_static`` only when
+    the elastic-stick law is on (``contact.stick_distance``), which alone uses it."""
+    rope = values["rope"]
+    if not isinstance(rope, str):
+        raise ConfigError("rope", f"expected a rope preset's name, got {rope!r}")
+    layer = set_at.get("rope", -1)
+    for key, val in rope_values(rope).items():
+        if set_at.get(key, -1) >= layer:
+            continue
+        if key == "contact.mu_static":
+            if contact.get("stick_distance") is not None:
+                contact["mu_static"] = val
+        else:
+            values[key] = val
 
 
 def protocol_defaults(proto) -> dict[str, Any]:

@@ -146,6 +146,43 @@ def timeline(proto: LoadingProtocol, ctx: RunContext, metrics: dict[str, Any], l
     return {"stages": stages, "events": events, "decision": dec, "stopped": stop}
 
 
+class _Retime:
+    """Goes on with a running simulation as if it had been built with other settings (a phase of the
+    protocol decided them, :meth:`LoadingProtocol.phase`): the boundary-condition groups take the
+    windows of the run description built with them, the simulation's run description (``run.toml``)
+    becomes that one, the context its stage times and parameters, the decision watch its load start
+    and end."""
+
+    def __init__(self, build, sim, ctx: RunContext, watch: _DecisionWatch):
+        self.build, self.sim, self.ctx, self.watch = build, sim, ctx, watch
+
+    def __call__(self, t: float, settings: dict[str, Any]) -> None:
+        from knotsim.runspec import check_run
+
+        _, ctx2, spec2, _ = self.build(settings)
+        for table in spec2.data["bc"]:
+            group = self.sim.bcs.groups.get(table["name"])
+            if group is None:
+                continue
+            start = float(table.get("start", 0.0))
+            stop = math.inf if table.get("stop") is None else float(table["stop"])
+            if (start, stop) != (group.start, group.stop):
+                self.sim.bcs.retime(table["name"], start, stop, now=t)
+        raw = check_run(spec2).raw
+        old_duration = self.sim.config["run"]["duration"]
+        self.sim.config.clear()
+        self.sim.config.update(raw)
+        # the run stops at its new end (its own stop predicate); its run.toml gets the duration it ran
+        self.sim.config["run"]["duration"] = old_duration
+        self.watch.plan_end = float(ctx2.data["t_settle"]) + float(ctx2.params["duration"])
+        for key in ("t_set", "t_pre"):
+            if key in ctx2.data:
+                self.ctx.data[key] = ctx2.data[key]
+        self.ctx.params = ctx2.params
+        self.ctx.bc = ctx2.bc
+        self.watch.next_check = pull_start(self.ctx)
+
+
 def _stop_rule(p: Params) -> tuple[bool, float]:
     """``(stop_at_decision, stop_margin)`` of a run (false for protocols without them)."""
     on = p.values.get("stop_at_decision", False)
@@ -168,6 +205,9 @@ class _DecisionWatch:
         self.decision: Decision | None = None
         self.next_check = pull_start(ctx)
         self.active = type(proto).decision is not LoadingProtocol.decision
+        #: run time (s) at which the run ends as planned when a phase retimed it (``None``: its duration)
+        self.plan_end: float | None = None
+        self.at_plan_end = False
 
     def add(self, t: float, row: dict) -> None:
         if not self.active:
@@ -182,9 +222,12 @@ class _DecisionWatch:
             cols.setdefault(key, []).append(val)
 
     def __call__(self, sim) -> str | None:
+        t = float(sim.state.time)
+        if self.plan_end is not None and t >= self.plan_end - 1e-9 * max(1.0, self.plan_end):
+            self.at_plan_end = True
+            return "the end of the run as retimed"
         if not self.active:
             return None
-        t = float(sim.state.time)
         if self.decision is None:
             if t < self.next_check - 1e-12:
                 return None
@@ -452,17 +495,14 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     cfg = check_run(spec)
     if on_start is not None:
         on_start(cfg)
-    # settings a preliminary run decides (knot-security's set_until_still: how long the set lasts);
-    # the run itself is then an ordinary one with those settings written down
-    adapted = proto.adapt(ctx, lambda extra: build_protocol_run(name, knot, geometry=geometry,
-                                                                overrides={**(overrides or {}), **extra}, quick=quick))
-    if adapted is not None:
+    # a stage whose length the run decides (knot-security's set held until the knot is still): the
+    # run is built in its longest form and retimed when the phase ends (_Retime)
+    phase = proto.phase(ctx)
+    if phase is not None:
         proto, ctx, spec, notes = build_protocol_run(name, knot, geometry=geometry, quick=quick,
-                                                     overrides={**(overrides or {}), **adapted["overrides"]})
-        notes = [*notes, *adapted.get("notes", [])]
-        ctx.data["adapted"] = adapted.get("record", {})
+                                                     overrides={**(overrides or {}), **phase.build_overrides})
         cfg = check_run(spec)
-    if save_config is not None:
+    if save_config is not None and phase is None:
         spec.save(save_config, header=f"knotsim pull: {spec.data['description']}; replay with "
                                       f"knotsim run {Path(save_config).name} -o OUT")
     sim, cfg = build_run(cfg)
@@ -475,18 +515,34 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
 
     stop_on, margin = _stop_rule(p)
     watch = _DecisionWatch(proto, ctx, stop_on, margin)
+    retime = _Retime(lambda extra: build_protocol_run(name, knot, geometry=geometry, quick=quick,
+                                                      overrides={**(overrides or {}), **extra}), sim, ctx, watch)
 
     def callback(s, res):
         reactions = merge_settle_reactions(ctx, res.reactions)
         row = proto.record(ctx, s.state.q, s.state.time, reactions)
         s.rows[-1].update(row)
         watch.add(s.state.time, row)
+        if phase is not None and not phase.done:
+            decided = phase.observe(float(s.state.time), row)
+            if decided is not None:
+                retime(float(s.state.time), {**phase.build_overrides, **decided})
 
     out = Path(out_dir) if out_dir is not None else None
     ran = run_simulation(sim, cfg.duration, out, output_interval=cfg.output_interval, progress=progress,
                          callback=callback, stop=watch)
     run_status = ran.status
     log = ran.log
+    stopped = None if watch.at_plan_end else ran.stopped  # the end of a retimed run is no early stop
+    p = ctx.params  # (a phase may have decided some: the parameters the run ran with)
+    if phase is not None:
+        notes = [*notes, *phase.notes]
+        ctx.data["adapted"] = phase.record
+        if save_config is not None:
+            from knotsim.runspec import RunSpec
+
+            RunSpec.from_dict(sim.config).save(save_config, header=f"knotsim pull: {sim.config['description']}; "
+                                                                   f"replay with knotsim run {Path(save_config).name} -o OUT")
     model = cfg.model
     curves = [model.rod_positions(sim.state.q, r) for r in range(model.n_rods)]
     topo_end = _topology(*proto.closure(ctx, curves))
@@ -497,7 +553,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     verdict = proto.verdict(ctx, metrics) if len(log) else "undecided"
     # the decision as the whole log gives it (the same rule the run was watched with)
     decision = proto.decision(ctx, log) if len(log) and watch.active else None
-    if ran.stopped is not None and decision is None:  # cannot happen with a consistent rule; said if it does
+    if stopped is not None and decision is None:  # cannot happen with a consistent rule; said if it does
         notes.append(f"the run was stopped at a decision the complete log does not confirm ({watch.decision})")
     status = knot_status(*topology_keys(proto, ctx, topo_start, topo_end), verdict=verdict)
     if status == "changed knot type":
@@ -530,7 +586,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
         "outcome": outcome,
         "knot_status": status,
         "run_status": run_status,
-        "timeline": timeline(proto, ctx, metrics, log, decision, ran.stopped),
+        "timeline": timeline(proto, ctx, metrics, log, decision, stopped),
         "topology": {"start": topo_start, "end": topo_end},
         "contact": contact_stats(log),
         "wall_time": time.perf_counter() - wall0,
