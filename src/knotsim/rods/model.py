@@ -123,6 +123,12 @@ class RodSpec:
         Initial reference director ``d1`` of each edge, shape ``(n_edges, 3)`` (made unit and
         orthogonal to the edge). Default: space-parallel transport along the rod of a vector
         normal to the first edge.
+    bending_stiffness:
+        Bending stiffness ``EI``, N m^2, independent of the axial stiffness ``EA = E pi h^2``
+        (a fibrous rope bends far more easily than a solid rod of the same ``EA``, see
+        docs/physics.md, "Ropes that exist"). Default ``None``: the solid rod's ``E pi h^4 / 4``.
+    torsional_stiffness:
+        Torsional stiffness ``GJ``, N m^2. Default ``None``: the solid rod's ``G pi h^4 / 2``.
 
     ``n_edges`` is ``N - 1`` for an open rod and ``N`` for a closed one; ``n_interior`` (the nodes
     with a bending/twisting stencil) is ``N - 2`` for an open rod and ``N`` for a closed one.
@@ -142,6 +148,8 @@ class RodSpec:
     edge_angles: np.ndarray | None = None
     velocities: np.ndarray | None = None
     reference_directors: np.ndarray | None = None
+    bending_stiffness: float | None = None
+    torsional_stiffness: float | None = None
     _validated: bool = field(default=False, repr=False)
 
     # ------------------------------------------------------------------ derived sizes
@@ -185,14 +193,21 @@ class RodSpec:
 
     @property
     def EA(self) -> float:
+        """Axial stiffness ``E pi h^2``, N."""
         return self.youngs_modulus * self.area
 
     @property
     def EI(self) -> float:
+        """Bending stiffness, N m^2: ``bending_stiffness`` if given, else ``E pi h^4 / 4``."""
+        if self.bending_stiffness is not None:
+            return float(self.bending_stiffness)
         return self.youngs_modulus * self.second_moment
 
     @property
     def GJ(self) -> float:
+        """Torsional stiffness, N m^2: ``torsional_stiffness`` if given, else ``G pi h^4 / 2``."""
+        if self.torsional_stiffness is not None:
+            return float(self.torsional_stiffness)
         return self.G * self.polar_moment
 
     def edge_vectors(self) -> np.ndarray:
@@ -240,6 +255,14 @@ class RodSpec:
                 raise ConfigError(f"{where}.poisson_ratio", f"must lie in (-1, 0.5], got {nu!r}")
         elif not (self.shear_modulus > 0):
             raise ConfigError(f"{where}.shear_modulus", f"must be positive, got {self.shear_modulus!r}")
+        for name in ("bending_stiffness", "torsional_stiffness"):
+            val = getattr(self, name)
+            if val is None:
+                continue
+            if (isinstance(val, bool) or not isinstance(val, int | float | np.floating | np.integer)
+                    or not math.isfinite(val) or val <= 0):
+                raise ConfigError(f"{where}.{name}", f"must be a positive number in N m^2 (or none: the solid "
+                                                     f"rod's), got {val!r}")
         lengths = np.linalg.norm(self.edge_vectors(), axis=1)
         bad = np.nonzero(lengths <= 1e-12 * max(1.0, float(np.max(np.abs(x)))))[0]
         if bad.size:

@@ -17,6 +17,10 @@ Shapes (``shape = ...``) and their keys:
   checkpoint), ``rod`` (name or index, default this rod's index); the rod starts with that frame's
   positions, velocities and material frames (``continue_motion = false``: from rest, untwisted).
 
+Every rod takes its material as ``youngs_modulus`` (Pa), ``density`` (kg/m^3) and ``poisson_ratio`` or
+``shear_modulus`` (Pa), and may set ``bending_stiffness`` (EI) and ``torsional_stiffness`` (GJ), N m^2,
+independently of the axial stiffness ``E pi h^2`` (a fibrous rope; default: the solid rod's).
+
 Every rod also takes ``velocities`` ``(N, 3)`` m/s, ``edge_angles`` (rad) and
 ``reference_directors`` ``(n_edges, 3)`` explicitly (a saved run file uses them).
 """
@@ -43,7 +47,7 @@ from knotsim.errors import ConfigError
 from knotsim.rods import RodSpec
 
 _ROD_COMMON = ("name", "shape", "radius", "youngs_modulus", "density", "poisson_ratio", "shear_modulus",
-               "closed", "natural_curvature", "natural_twist", "rest_edge_length", "velocities", "edge_angles",
+               "bending_stiffness", "torsional_stiffness", "closed", "natural_curvature", "natural_twist", "rest_edge_length", "velocities", "edge_angles",
                "reference_directors")
 _ROD_SHAPES = {
     "straight": ("length", "n_nodes", "start", "direction"),
@@ -221,6 +225,9 @@ def parse_rod(t, i: int, base_dir: Path) -> RodSpec:
         kw["poisson_ratio"] = get_field(t, "poisson_ratio", path, as_number)
     if "shear_modulus" in t:
         kw["shear_modulus"] = get_field(t, "shear_modulus", path, as_number, positive=True)
+    for key in ("bending_stiffness", "torsional_stiffness"):  # EI, GJ in N m^2 (default: the solid rod's)
+        if key in t:
+            kw[key] = get_field(t, key, path, as_number, positive=True)
     if "natural_curvature" in t:
         kw["natural_curvature"] = as_numbers(t["natural_curvature"], f"{path}.natural_curvature")
     if "natural_twist" in t:
