@@ -37,6 +37,7 @@ from knotsim.errors import (
 _LAZY = {
     # rods and model
     "RodSpec": "knotsim.rods", "Model": "knotsim.rods", "State": "knotsim.solver.state",
+    "RopePreset": "knotsim.rods.ropes", "rope_presets": "knotsim.rods.ropes",
     # boundary conditions
     "BoundaryConditions": "knotsim.bc", "Waypoints": "knotsim.bc", "ConstantVelocity": "knotsim.bc",
     "FunctionPath": "knotsim.bc", "Rotation": "knotsim.bc",

@@ -312,10 +312,11 @@ def _register_subcommands() -> None:
     commands)."""
     from knotsim.cli.compare import compare
     from knotsim.cli.protocols import knots, pull, tie
+    from knotsim.cli.ropes import ropes
     from knotsim.cli.study import animate, critical_mu, report, study
     from knotsim.cli.view import view
 
-    for command in (knots, pull, tie, compare, study, report, animate, critical_mu, view):
+    for command in (knots, ropes, pull, tie, compare, study, report, animate, critical_mu, view):
         main.add_command(command)
 
 

@@ -10,6 +10,7 @@ import click
 from knotsim.cli.errors import EXIT_FAILED_CHECKS, exit_codes
 from knotsim.cli.output import OUTPUT_DIR, default_dir, prepare_output
 from knotsim.cli.protocols import ProtocolOption
+from knotsim.cli.ropes import add_rope, rope_option
 
 
 @click.command("compare")
@@ -18,6 +19,7 @@ from knotsim.cli.protocols import ProtocolOption
               help="(the protocol every knot goes through).")
 @click.option("--set", "assignments", multiple=True, metavar="KEY=VALUE",
               help="A protocol parameter for every case (repeatable), e.g. --set load_time=5.")
+@rope_option
 @click.option("--mu", "mu_text", default=None, metavar="MU[,MU...]",
               help="Friction coefficients, comma-separated, e.g. 0.2,0.3,0.4 (default: the protocol's).")
 @click.option("--workers", type=click.IntRange(min=1), default=None,
@@ -30,7 +32,7 @@ from knotsim.cli.protocols import ProtocolOption
               help="Replace what is in a non-empty output directory (an earlier comparison: every case runs again).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 @exit_codes
-def compare(knots: tuple[str, ...], protocol: str, assignments: tuple[str, ...], mu_text: str | None,
+def compare(knots: tuple[str, ...], protocol: str, assignments: tuple[str, ...], rope: str | None, mu_text: str | None,
             workers: int | None, quick: bool, outdir: Path | None, overwrite: bool, quiet: bool):
     """Which of KNOTS holds better: run each knot (library name, see `knotsim knots`, or a .toml
     drawing) at each --mu with one protocol, print one table (rows: knots, columns: mu; each cell
@@ -47,7 +49,7 @@ def compare(knots: tuple[str, ...], protocol: str, assignments: tuple[str, ...],
     from knotsim.protocols.params import parse_assignments
     from knotsim.study.compare import STUDY_FILE, compare_knots, compare_study, parse_mu_list
 
-    overrides = parse_assignments(assignments)
+    overrides = add_rope(parse_assignments(assignments), rope)
     mu = parse_mu_list(mu_text) if mu_text is not None else None
     study = compare_study(knots, protocol=protocol, mu=mu, overrides=overrides, quick=quick)  # input errors first
     target = outdir if outdir is not None else default_dir(study["name"])

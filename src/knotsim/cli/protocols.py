@@ -2,7 +2,7 @@
 :mod:`knotsim.cli.commands`)::
 
     knotsim knots
-    knotsim pull KNOT | --geometry PATH [--matrices A,B] [--protocol P] [--set key=value ...] [-o OUT]
+    knotsim pull KNOT | --geometry PATH [--matrices A,B] [--protocol P] [--set key=value ...] [--rope NAME] [-o OUT]
                  [--overwrite] [--quick] [--save-config F] [--no-figures]
     knotsim pull [KNOT] [--protocol P] --show-params
     knotsim tie SEQUENCE [-o OUT] [--overwrite] | --list
@@ -26,6 +26,7 @@ import click
 from knotsim.cli.errors import EXIT_SIMULATION
 from knotsim.cli.errors import exit_codes as _exit_codes
 from knotsim.cli.output import OUTPUT_DIR, announce_compile, default_dir, prepare_output
+from knotsim.cli.ropes import add_rope, rope_option
 
 
 class ProtocolOption(click.Option):
@@ -157,6 +158,7 @@ def _figures(outdir: Path) -> list[Path]:
               help="(default: from the knot's kind, or the protocol that wrote the --geometry run).")
 @click.option("--set", "assignments", multiple=True, metavar="KEY=VALUE",
               help="Override a parameter (repeatable), e.g. --set mu=0.3 --set contact.delta=1e-3.")
+@rope_option
 @click.option("-o", "--output", "outdir", type=OUTPUT_DIR, default=None,
               help="Output directory (trajectory.h5, log.parquet, run.json, run.toml, checkpoint.npz, summary.json, "
                    "force.png, render/; default runs/<knot>-<protocol>).")
@@ -172,7 +174,7 @@ def _figures(outdir: Path) -> list[Path]:
 @click.option("--json", "as_json", is_flag=True, help="Print the whole summary as JSON.")
 @_exit_codes
 def pull(knot: str | None, geometry: Path | None, matrices: str | None, protocol: str | None,
-         assignments: tuple[str, ...],
+         assignments: tuple[str, ...], rope: str | None,
          outdir: Path | None, overwrite: bool, quick: bool, show_params: bool, save_config: Path | None,
          figures: bool, progress: bool | None, as_json: bool):
     """Measure the strength of KNOT (library name or .toml drawing) or of --geometry with a loading protocol."""
@@ -187,7 +189,7 @@ def pull(knot: str | None, geometry: Path | None, matrices: str | None, protocol
         return
     if (knot is None) == (geometry is None):
         raise ConfigError("knot", "give a library KNOT or --geometry PATH (one of them)")
-    overrides = parse_assignments(assignments)
+    overrides = add_rope(parse_assignments(assignments), rope)
     if matrices is not None:
         if geometry is None:
             raise ConfigError("matrices", "--matrices names the matrices of a --geometry .mat file")

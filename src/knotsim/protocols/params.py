@@ -53,8 +53,8 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
                                    "rod's E pi h^4 / 4)"),
     "torsional_stiffness": ("N m^2", "torsional stiffness GJ (none: the solid rod's G pi h^4 / 2)"),
     "rope": ("text", "a rope preset (knotsim ropes lists them): sets radius, density, youngs_modulus (its EA / "
-                     "pi h^2), bending_stiffness, torsional_stiffness, mu and, with the elastic-stick law, "
-                     "contact.mu_static; a key given with --set wins (empty: none)"),
+                     "pi h^2), bending_stiffness, torsional_stiffness, mu and (elastic-stick law, the preset's "
+                     "mu) contact.mu_static; a key given with --set wins (empty: none)"),
     "damping": ("Pa s", "viscosity eta of the viscous force -eta v l_voronoi"),
     "gravity": ("m/s^2", "gravitational acceleration along -z (0: none)"),
     "mu": ("-", "Coulomb friction coefficient"),
@@ -346,16 +346,18 @@ def rope_values(name: str) -> dict[str, float]:
 def _apply_rope(values: dict[str, Any], contact: dict[str, Any], set_at: Mapping[str, int]) -> None:
     """Set the rope preset ``values["rope"]``'s parameters, except those given in the layer that
     named the rope or in a later one (an explicit ``--set`` wins); ``contact.mu_static`` only when
-    the elastic-stick law is on (``contact.stick_distance``), which alone uses it."""
+    the elastic-stick law is on (``contact.stick_distance``), which alone uses it, and ``mu`` is the
+    preset's."""
     rope = values["rope"]
     if not isinstance(rope, str):
         raise ConfigError("rope", f"expected a rope preset's name, got {rope!r}")
     layer = set_at.get("rope", -1)
     for key, val in rope_values(rope).items():
-        if set_at.get(key, -1) >= layer:
+        if set_at.get(key, -2) >= layer:
             continue
         if key == "contact.mu_static":
-            if contact.get("stick_distance") is not None:
+            # the preset's static excess belongs to its own mu: an explicit mu has none
+            if contact.get("stick_distance") is not None and set_at.get("mu", -2) < layer:
                 contact["mu_static"] = val
         else:
             values[key] = val
