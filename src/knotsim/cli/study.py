@@ -19,6 +19,7 @@ import click
 
 from knotsim.cli.errors import EXIT_FAILED_CHECKS as EXIT_FAILED_CASES
 from knotsim.cli.errors import exit_codes as _exit_codes
+from knotsim.cli.ropes import add_rope, rope_option
 
 __all__ = ["animate", "report", "study"]
 
@@ -194,11 +195,12 @@ def animate(run_dir: Path, case_id: str | None, out: Path, fps: float, every: in
               help="m; a hold that moved the loaded end this far over its second half counts as slipping.")
 @click.option("--set", "assignments", multiple=True, metavar="KEY=VALUE",
               help="A knot-security parameter (repeatable), e.g. --set set_tension=0.02.")
+@rope_option
 @click.option("--quick", is_flag=True, help="The protocol's coarse, short settings.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 @_exit_codes
 def critical_mu(knot: str, load: float, mu_low: float, mu_high: float, tol: float, drift_limit: float,
-                assignments: tuple[str, ...], quick: bool, as_json: bool):
+                assignments: tuple[str, ...], rope: str | None, quick: bool, as_json: bool):
     """The least friction coefficient at which KNOT, set by the knot-security protocol, holds LOAD
     (bisection over hold runs; docs/protocols.md)."""
     import json
@@ -207,7 +209,7 @@ def critical_mu(knot: str, load: float, mu_low: float, mu_high: float, tol: floa
     from knotsim.study.critical import critical_friction
 
     res = critical_friction(knot, load, mu_low=mu_low, mu_high=mu_high, tol=tol, drift_limit=drift_limit,
-                            overrides=parse_assignments(assignments), quick=quick)
+                            overrides=add_rope(parse_assignments(assignments), rope), quick=quick)
     if as_json:
         click.echo(json.dumps({"knot": res.knot, "load": res.load, "mu_slip": res.mu_slip, "mu_hold": res.mu_hold,
                                "mu_c": res.mu_c, "runs": res.runs}, default=float))

@@ -49,7 +49,7 @@ from knotsim._util.jsonio import json_safe, write_json
 from knotsim.contact.options import ContactOptions
 from knotsim.errors import ConfigError
 from knotsim.protocols.base import Decision, LoadingProtocol, ProtocolResult, RunContext
-from knotsim.protocols.params import COMMON_DEFAULTS, Params, resolve_params
+from knotsim.protocols.params import COMMON_DEFAULTS, Params, resolve_params, rope_values
 from knotsim.protocols.timeline import apply_settle, merge_settle_reactions, pull_start
 
 __all__ = ["DECISION_CHECK", "build_protocol_run", "contact_stats", "on_run_axis", "run_protocol", "timeline",
@@ -404,18 +404,24 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
         notes.append(f"the ropes have {', '.join(f'{a}: {c}' for a, c in zip(geo.rope_names, counts, strict=True))} "
                      f"nodes; the parameter n_nodes gives rope {geo.rope_names[0]}'s")
     p = params
+    if p["rope"] and not math.isclose(geo.radius, rope_values(p["rope"])["radius"]) and "radius" not in (overrides or {}):
+        raise ConfigError("rope", f"the geometry fixes the radius {geo.radius:g} m, rope {p['rope']!r} has "
+                                  f"{rope_values(p['rope'])['radius']:g} m; set the material keys instead")
+    mat = {"youngs_modulus": float(p["youngs_modulus"]), "density": float(p["density"]),
+           "poisson_ratio": float(p["poisson_ratio"])}
+    for key in ("bending_stiffness", "torsional_stiffness"):  # EI, GJ of a fibrous rope (none: the solid rod's)
+        if p[key] is not None:
+            mat[key] = float(p[key])
     rods = []
     for r, (x, rname) in enumerate(zip(geo.ropes, geo.rope_names, strict=True)):
         table = {"name": rname, "shape": "points", "positions": np.asarray(x, float).tolist(), "radius": geo.radius,
-                 "youngs_modulus": float(p["youngs_modulus"]), "density": float(p["density"]),
-                 "poisson_ratio": float(p["poisson_ratio"])}
+                 **mat}
         if geo.state:
             for key, val in geo.state[r].items():
                 if val is not None:
                     table[key] = np.asarray(val, float).tolist()
         rods.append(table)
-    ei = RodSpec(np.asarray(geo.ropes[0], float), radius=geo.radius, youngs_modulus=float(p["youngs_modulus"]),
-                 density=float(p["density"]), poisson_ratio=float(p["poisson_ratio"])).EI
+    ei = RodSpec(np.asarray(geo.ropes[0], float), radius=geo.radius, **mat).EI  # ctx.EI: F h^2/EI
     ctx = RunContext(params=p, geometry=geo, EI=ei, radius=geo.radius, length=geo.length)
     proto.setup(ctx)
     apply_settle(ctx, p["settle_time"])  # the loading starts after settle_time (protocols/timeline.py)
