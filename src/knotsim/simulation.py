@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import time as _time
+from collections import Counter
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
@@ -15,6 +16,7 @@ import numpy as np
 
 from knotsim._util.validate import number
 from knotsim.errors import ConfigError, SimulationError, ValidityError
+from knotsim.solver.diagnosis import STALL_ATTEMPTS, STALL_FRACTION, failure_place, stall_message
 from knotsim.solver.options import SolverOptions
 from knotsim.solver.state import DriverMemory, RunMemory, State, initial_state
 from knotsim.solver.steplog import StepLog
@@ -63,6 +65,12 @@ class Simulation:
                                                     if i.memory is not None},
                                       bc=bcs.memory() if bcs is not None else {})
         self.dt_min = self.options.dt_min or self.options.dt / 1024.0
+        #: consecutive step attempts with the step below ``dt / STALL_FRACTION`` after which the run
+        #: stops with a diagnosis (:data:`knotsim.solver.diagnosis.STALL_ATTEMPTS`; see :meth:`step`)
+        self.stall_attempts: int = STALL_ATTEMPTS
+        #: the places the failures of the current collapsed stretch named, and its last failure
+        self._stall_places: Counter = Counter()
+        self._stall_last = ""
         #: the state just before a final step that was shortened to land on the requested end time
         #: (its run memory a snapshot; see :meth:`resume_point`), else ``None``
         self._before_short_step: State | None = None
@@ -99,8 +107,41 @@ class Simulation:
 
     # ------------------------------------------------------------------ stepping
     def step(self) -> StepResult:
-        """One accepted step of (at most) the current step size, retrying with halved steps."""
+        """One accepted step of (at most) the current step size, retrying with halved steps.
+
+        A step that cannot be taken above ``dt_min`` stops the run with a
+        :class:`~knotsim.errors.SimulationError`; so does a step that stays collapsed: after
+        :attr:`stall_attempts` consecutive attempts (accepted or failed) with the step below
+        ``dt / STALL_FRACTION`` (:mod:`knotsim.solver.diagnosis`), the error says since when,
+        where the failures were and what the interactions report (docs/troubleshooting.md)."""
         return self._advance_one(math.inf)
+
+    def _watch_stall(self, d) -> None:
+        """Count an attempt made with the policy's step ``d.dt`` into the collapsed stretch (or end
+        the stretch); raise the stall's :class:`~knotsim.errors.SimulationError` at its limit."""
+        if not d.dt < self.options.dt / STALL_FRACTION:
+            if d.collapsed_attempts:
+                d.collapsed_attempts = d.collapsed_failures = 0
+                d.collapsed_since, d.collapsed_since_step = math.nan, -1
+                self._stall_places.clear()
+                self._stall_last = ""
+            return
+        if d.collapsed_attempts == 0:
+            d.collapsed_since, d.collapsed_since_step = self.state.time, d.steps
+        if d.collapsed_attempts >= self.stall_attempts:
+            hints = []
+            for inter in self.stepper.interactions:
+                hint = getattr(inter, "stall_hint", None)
+                text = hint(d.dt) if callable(hint) else ""
+                if text:
+                    hints.append(text)
+            raise SimulationError(
+                stall_message(attempts=d.collapsed_attempts, failures=d.collapsed_failures,
+                              since=d.collapsed_since, since_step=d.collapsed_since_step, time=self.state.time,
+                              steps=d.steps, dt=d.dt, dt_target=self.options.dt, places=self._stall_places,
+                              last_failure=self._stall_last, hints=hints),
+                last_good_state=self.state.copy(), time=self.state.time)
+        d.collapsed_attempts += 1
 
     def _advance_one(self, t_end: float) -> StepResult:
         attempts = 0
@@ -114,6 +155,7 @@ class Simulation:
                 before = self.state.copy()
                 before.memory = self.state.memory.snapshot()
                 self._before_short_step = before
+            self._watch_stall(d)  # (after the snapshot: a continued run counts this attempt itself)
             trial = self.state.copy()
             attempts += 1
             try:
@@ -122,6 +164,10 @@ class Simulation:
                                         full_newton=attempts > 1 or d.retry_cooldown > 0)
             except StepFailure as exc:
                 d.n_failures += 1
+                if d.collapsed_attempts:
+                    d.collapsed_failures += 1
+                    self._stall_last = str(exc)
+                    self._stall_places[failure_place(self._stall_last) or "(no place named)"] += 1
                 d.dt = h / 2.0
                 d.easy = 0
                 if d.dt < self.dt_min:
@@ -137,6 +183,7 @@ class Simulation:
                 exc.last_good_state, exc.time = self.state.copy(), self.state.time
                 raise
             self.state = trial
+            d.steps += 1
             if not shortened:
                 self._before_short_step = None
             res.attempts = attempts

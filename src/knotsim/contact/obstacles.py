@@ -69,6 +69,7 @@ import numpy as np
 
 from knotsim._util.validate import number
 from knotsim.bc.paths import Path, as_path
+from knotsim.contact.friction import FRICTION_SHARPNESS
 from knotsim.contact.obstacle_kernels import CAPSULE, PLANE, SPHERE, obstacle_evaluate
 from knotsim.contact.obstacle_surface_kernels import STENCIL, obstacle_surface_evaluate, spin_update
 from knotsim.contact.obstacle_swept import NODE, describe, first_pass_through, obstacle_edges
@@ -585,6 +586,47 @@ class Obstacle:
         self.spin, _ = spin_update(self.spin, self.spin_proj, self.spin_inertia, self._dt_eval, self.mu, self.nu,
                                    np.ascontiguousarray(fn[on]), np.ascontiguousarray(self._normal[on]),
                                    np.ascontiguousarray(y), np.ascontiguousarray(vs), self._vel, self._cen)
+
+    def stall_hint(self, dt: float) -> str:
+        """What this obstacle's contacts were doing at its last evaluation (the last step attempt), for
+        the message of a run whose step stays collapsed at ``dt`` (s): its free spin, and how many
+        contact nodes sat near sticking, where the smooth law's slope ``μ F_n K2/2`` (N s/m) outweighs
+        the node's inertia ``m/dt`` by the ratio given; ``""`` without contacts."""
+        if not self.nodes.size or getattr(self, "_q_eval", None) is None:
+            return ""
+        fn = np.sqrt(np.einsum("ij,ij->i", self._fc, self._fc))
+        on = (fn > 0.0) & (self._gap < self.delta)
+        if not np.any(on):
+            return ""
+        n = self._normal[on]
+        y = self._q_eval[self._dofs[on]] - self.node_h[on, None] * n
+        if self.friction_model == "surface":
+            vs = self._vs[on]
+        else:
+            vs = (self._q_eval[self._dofs[on]] - self._qp_eval[self._dofs[on]]) / self._dt_eval
+        rel = vs - self._vel[None, :] - np.cross(self.surface_omega, y - self._cen[None, :])
+        slip = np.linalg.norm(rel - np.einsum("ij,ij->i", rel, n)[:, None] * n, axis=1)
+        m = self.model
+        text = f"obstacle {self.name!r}"
+        if self.spin_inertia is not None:
+            text += f" (free spin {np.round(self.spin, 6).tolist()} rad/s)"
+        text += f": {int(on.sum())} contact nodes"
+        if self.mu > 0.0:
+            near = slip < 10.0 * self.nu
+            slope = self.mu * fn[on] * (FRICTION_SHARPNESS / self.nu) / 2.0
+            ratio = slope * dt / self.node_mass[on]
+            k = int(np.argmax(np.where(near, ratio, -1.0)))
+            text += (f", {int(near.sum())} of them near sticking (slip below 10 nu = {10 * self.nu:.3g} m/s; median "
+                     f"slip {float(np.median(slip)):.3g} m/s)")
+            if near.any():
+                node = int(self.nodes[on][k])
+                rod = int(m.node_rod[node])
+                text += (f"; at node {node - int(m.rod_node_start[rod])} of rod {m.rod_names[rod]!r} the friction "
+                         f"law's slope mu F_n K2/2 = {slope[k]:.3g} N s/m is {ratio[k]:.3g} x the node's inertia "
+                         f"m/dt at dt = {dt:.3g} s (the smooth stick spans a slip of nu = {self.nu:g} m/s, "
+                         f"{self.nu * dt:.2g} m in a step; a larger nu on {self.name!r}, e.g. {10 * self.nu:g} m/s, "
+                         f"widens it)")
+        return text
 
     def reaction(self) -> tuple[np.ndarray, np.ndarray]:
         """``(force (3,), moment (3,))`` on the obstacle at the last accepted step (N, N m)."""

@@ -1,8 +1,57 @@
-"""Where a failed Newton solve went wrong, in words for the error message."""
+"""Where a failed Newton solve went wrong, and why a run whose step stays collapsed cannot
+progress, in words for the error message."""
 
 from __future__ import annotations
 
+import re
+from collections import Counter
+
 import numpy as np
+
+#: the step counts as collapsed below ``dt_target / STALL_FRACTION`` (2 octaves above the default
+#: ``dt_min = dt/1024``)
+STALL_FRACTION = 256.0
+#: consecutive step attempts (accepted or failed) with a collapsed step after which the run stops
+#: (:class:`~knotsim.simulation.Simulation` ``stall_attempts``): at most ``2000/256 ≈ 8`` target
+#: steps of simulated time; a healthy run's collapses (an impact, a stick-slip switch) recover
+#: within a few hundred
+STALL_ATTEMPTS = 2000
+
+_PLACE = re.compile(r"(obstacle '[^']*'(?:: (?:node|edge) \d+ of rod '[^']*')?|node \d+ of rod '[^']*'|edge \d+ of rod '[^']*'|"
+                    r"rod '[^']*' (?:node|edge) \d+(?: \(twist\))?)")
+
+
+def failure_place(message: str) -> str:
+    """The place a step failure's message names first (``"rod 'r' node 26"``, ``"obstacle 'post'"``,
+    ...), or ``""``."""
+    m = _PLACE.search(message)
+    return m.group(1) if m else ""
+
+
+def stall_message(*, attempts: int, failures: int, since: float, since_step: int, time: float, steps: int,
+                  dt: float, dt_target: float, places: Counter, last_failure: str, hints: list[str]) -> str:
+    """The :class:`~knotsim.errors.SimulationError` text of a run whose step stayed collapsed:
+    ``attempts`` consecutive step attempts (``failures`` of them failed) with the step below
+    ``dt_target / STALL_FRACTION`` (s) since time ``since`` (s, accepted step ``since_step``), now at
+    ``time`` (s, step ``steps``) with step ``dt`` (s); ``places`` counts the places the failures
+    named, ``last_failure`` is the last failure's message and ``hints`` what the interactions say
+    about their state (e.g. an obstacle's contacts near sticking)."""
+    out = (f"the time step stayed collapsed: {attempts} consecutive step attempts ({failures} failed) with "
+           f"the step below dt/{STALL_FRACTION:g} = {dt_target / STALL_FRACTION:.3g} s (now {dt:.3g} s) since "
+           f"t={since:.6g} s (step {since_step}); the run advanced {time - since:.3g} s since then (now "
+           f"t={time:.6g} s, step {steps})")
+    if places:
+        top = ", ".join(f"{p} ({n})" for p, n in places.most_common(3))
+        out += f"; failures at {top}"
+    if last_failure:
+        out += f"; last failure: {last_failure}"
+    for h in hints:
+        out += f"; {h}"
+    return (out + ". The run stops here instead of crawling; its files hold every step up to the last "
+            "good one (exception.last_good_state). Look at the place and quantity named above: a "
+            "contact that cannot settle at any step size, a boundary condition that contradicts "
+            "another, or a friction law too sharp for the step (see docs/troubleshooting.md, "
+            "'The time step collapses')")
 
 
 def largest_residual_at(model, interactions, system, q: np.ndarray) -> str:

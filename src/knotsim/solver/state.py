@@ -39,12 +39,21 @@ def memory_field(name: str, doc: str) -> property:
 class DriverMemory:
     """The adaptive step policy of :class:`~knotsim.simulation.Simulation`: the current step ``dt``
     (s), the count of easy steps since the last change of ``dt``, the steps of full Newton left
-    after a retried step, and the failed step attempts so far."""
+    after a retried step, and the failed step attempts so far; the stall watch
+    (:data:`knotsim.solver.diagnosis.STALL_FRACTION`): the accepted steps so far, and the current
+    stretch of consecutive step attempts made with the step below ``dt_target / STALL_FRACTION``
+    (its attempts, its failures, and the time (s) and accepted-step count at which it began; ``0``,
+    ``0``, NaN and ``-1`` outside a stretch)."""
 
     dt: float = math.nan
     easy: int = 0
     retry_cooldown: int = 0
     n_failures: int = 0
+    steps: int = 0
+    collapsed_attempts: int = 0
+    collapsed_failures: int = 0
+    collapsed_since: float = math.nan
+    collapsed_since_step: int = -1
 
 
 @dataclass
