@@ -407,8 +407,8 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
     if p["rope"] and not math.isclose(geo.radius, rope_values(p["rope"])["radius"]) and "radius" not in (overrides or {}):
         raise ConfigError("rope", f"the geometry fixes the radius {geo.radius:g} m, rope {p['rope']!r} has "
                                   f"{rope_values(p['rope'])['radius']:g} m; set the material keys instead")
-    mat = {"youngs_modulus": float(p["youngs_modulus"]), "density": float(p["density"]),
-           "poisson_ratio": float(p["poisson_ratio"])}
+    mat: dict[str, Any] = {"youngs_modulus": float(p["youngs_modulus"]), "density": float(p["density"]),
+                           "poisson_ratio": float(p["poisson_ratio"])}
     for key in ("bending_stiffness", "torsional_stiffness"):  # EI, GJ of a fibrous rope (none: the solid rod's)
         if p[key] is not None:
             mat[key] = float(p[key])
