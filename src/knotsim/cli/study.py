@@ -2,7 +2,8 @@
 :mod:`knotsim.cli.commands`)::
 
     knotsim study STUDY.toml -o STUDY_DIR [--workers N] [--scheduler tcp://HOST:PORT] [--resume]
-                  [--retry-failed] [--dry-run] [--quiet]
+                  [--retry-failed] [--dry-run] [--quiet] [--pack]
+    knotsim study --pack -o STUDY_DIR
     knotsim report STUDY_DIR [-o REPORT.md]
     knotsim animate RUN_DIR [--case ID] -o OUT.gif|OUT.mp4 [--fps F] [--every N] [--size WxH]
 
@@ -66,9 +67,9 @@ class _Bar:
 
 
 @click.command("study")
-@click.argument("study_file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("study_file", required=False, type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("-o", "--output", "study_dir", required=True, type=click.Path(file_okay=False, path_type=Path),
-              help="Study directory (study.toml, results.parquet, provenance.json, cases/).")
+              help="Study directory (study.toml, results.parquet, provenance.json, timeseries.parquet, cases/).")
 @click.option("--workers", type=click.IntRange(min=1), default=None,
               help="Local worker processes (default: number of CPUs).")
 @click.option("--scheduler", default=None, metavar="tcp://HOST:PORT",
@@ -77,15 +78,25 @@ class _Bar:
 @click.option("--retry-failed", is_flag=True, help="With --resume, run failed cases again too.")
 @click.option("--dry-run", is_flag=True, help="List the cases and exit.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
+@click.option("--pack", is_flag=True,
+              help="Then fold the case directories into cases.parquet and timeseries.parquet and remove them "
+                   "(the study still reopens and resumes; full logs and trajectories go). Without STUDY_FILE: "
+                   "only pack STUDY_DIR.")
 @_exit_codes
-def study(study_file: Path, study_dir: Path, workers: int | None, scheduler: str | None, resume: bool,
-          retry_failed: bool, dry_run: bool, quiet: bool):
-    """Run every case of the parametric study STUDY_FILE (see docs/studies.md)."""
+def study(study_file: Path | None, study_dir: Path, workers: int | None, scheduler: str | None, resume: bool,
+          retry_failed: bool, dry_run: bool, quiet: bool, pack: bool):
+    """Run every case of the parametric study STUDY_FILE (see docs/studies.md); with --pack, then
+    pack STUDY_DIR (without STUDY_FILE: only pack it)."""
     import sys
 
     from knotsim.study.runner import plan_study, run_study
     from knotsim.study.spec import load_study_spec
 
+    if study_file is None:
+        if not pack:
+            raise click.UsageError("missing STUDY_FILE (only --pack goes without one)")
+        _pack(study_dir)
+        return
     if retry_failed and not resume:
         raise click.UsageError("--retry-failed needs --resume")
     spec = load_study_spec(study_file)
@@ -115,10 +126,20 @@ def study(study_file: Path, study_dir: Path, workers: int | None, scheduler: str
         bar.close()
     n_fail = int((df["outcome"] == "failed").sum()) if len(df) else 0
     click.echo(f"{len(df) - n_fail} cases completed, {n_fail} failed; table in {study_dir / 'results.parquet'}")
+    if pack:
+        _pack(study_dir)
     if n_fail:
         for _, row in df[df["outcome"] == "failed"].iterrows():
             click.echo(f"  failed {row['case_id']}: {row['error']}", err=True)
         raise click.exceptions.Exit(EXIT_FAILED_CASES)
+
+
+def _pack(study_dir: Path) -> None:
+    from knotsim.study.store import pack_study
+
+    done = pack_study(study_dir)
+    click.echo(f"packed {done['cases']} cases ({done['series']} with a time series) into "
+               f"{study_dir / 'cases.parquet'}; {done['removed']} case directories removed")
 
 
 @click.command("report")

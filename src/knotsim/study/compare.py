@@ -319,13 +319,17 @@ def format_table(table, *, markdown: bool = False) -> str:
 def _comparison_table(df, protocol: str, labels: dict[str, str], study_dir: Path | None = None):
     """Long table of the cells from a study's results table ``df`` (:func:`load_study`); the
     metrics of each completed case are read from its ``summary.json`` under ``study_dir`` when
-    there is one (it keeps the metrics that are ``None``, which the results table leaves out)."""
+    there is one, in its case directory or in a packed study's ``cases.parquet`` (it keeps the
+    metrics that are ``None``, which the results table leaves out)."""
     import pandas as pd
 
+    from knotsim.study.store import StudyStore
+
+    store = StudyStore(study_dir) if study_dir is not None else None
     records = df.to_dict("records")
     for rec in records:
-        if study_dir is not None and rec.get("outcome") == "completed" and rec.get("case_dir"):
-            metrics_of = _summary(study_dir / str(rec["case_dir"])).get("metrics") or {}
+        if store is not None and rec.get("outcome") == "completed" and rec.get("case_dir"):
+            metrics_of = (store.read_summary(str(rec["case_id"])) or {}).get("metrics") or {}
             rec.update({k: v for k, v in metrics_of.items() if not isinstance(v, dict | list)})
             rec["_metrics"] = set(metrics_of)
     available = set(df.columns).union(*(rec.get("_metrics", set()) for rec in records))

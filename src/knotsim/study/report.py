@@ -195,17 +195,24 @@ def _knot_label(name) -> str | None:
 
 
 def _traction_series(study_dir: Path, row):
-    """(time s, F h²/EI) of a case from its log.parquet, or None."""
+    """(time s, F h²/EI) of a case from its log.parquet, else from the study's thinned series
+    (``timeseries.parquet``), or None."""
     import pandas as pd
 
-    if not isinstance(row.get("case_dir"), str):
-        return None
-    path = study_dir / row["case_dir"] / "log.parquet"
-    if not path.is_file():
-        return None
-    try:
-        log = pd.read_parquet(path)
-    except Exception:
+    from knotsim.study.store import StudyStore
+
+    log = None
+    if isinstance(row.get("case_dir"), str) and (study_dir / row["case_dir"] / "log.parquet").is_file():
+        try:
+            log = pd.read_parquet(study_dir / row["case_dir"] / "log.parquet")
+        except Exception:
+            log = None
+    if log is None and isinstance(row.get("case_id"), str):
+        try:
+            log = StudyStore(study_dir).read_series(row["case_id"])
+        except Exception:
+            log = None
+    if log is None:
         return None
     for col in ("F_norm", "F_h2_EI", "traction_norm"):
         if col in log.columns and "time" in log.columns:
@@ -220,12 +227,14 @@ def _fmt_value(v) -> str:
 def published_setup_differences(study_dir: str | os.PathLike, df) -> list[str]:
     """What keeps the completed cases of ``df`` from being the published MAE259B set-up (empty: it
     matches): the protocol, the measured window (``mean_window`` = 13 s, all of it simulated) and
-    the :data:`PUBLISHED_KEYS` parameters, read from each case's ``summary.json`` when the case
-    directory is there, else from the results table (its ``overrides.*`` columns)."""
-    import json
-
+    the :data:`PUBLISHED_KEYS` parameters, read from each case's ``summary.json`` when the study
+    has it (a case directory, or a packed study's ``cases.parquet``), else from the results table
+    (its ``overrides.*`` columns)."""
     from knotsim.protocols.params import COMMON_DEFAULTS
     from knotsim.protocols.registry import get_protocol
+    from knotsim.study.store import StudyStore
+
+    store = StudyStore(study_dir)
 
     published = dict(COMMON_DEFAULTS)
     published.update(get_protocol("single-rod-bend").defaults)
@@ -240,13 +249,7 @@ def published_setup_differences(study_dir: str | os.PathLike, df) -> list[str]:
             diffs[key] = f"{key} {_fmt_value(got)} instead of {_fmt_value(ref)}"
 
     for _, row in done.iterrows():
-        summary = None
-        if isinstance(row.get("case_dir"), str):
-            path = Path(study_dir) / row["case_dir"] / "summary.json"
-            try:
-                summary = json.loads(path.read_text())
-            except (OSError, ValueError):
-                summary = None
+        summary = store.read_summary(str(row["case_id"])) if isinstance(row.get("case_dir"), str) else None
         if summary is not None:
             if summary.get("protocol") != "single-rod-bend":
                 differ("protocol", summary.get("protocol"), "single-rod-bend")

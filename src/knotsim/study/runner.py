@@ -151,12 +151,16 @@ def _run_locked(spec, cases, reused, todo, study_dir, workers, scheduler, resume
     store.write_results(cases, records)
     state = Progress(total=len(cases), todo=len(todo), reused=len(reused))
     t0 = time.perf_counter()
+    # the thinned logs of the reused cases: the study's timeseries.parquet, their case directories
+    series = {cid: df for cid, df in store.series_by_case([c for c in reused if store.case_dir(c).is_dir()]).items()
+              if cid in reused}
+    loop = _Loop(store, cases, records, state, progress, t0, series)
     if todo:
         if backend == "local":
-            _run_local(todo, store, spec, records, state, cases, workers, max_cases_per_worker, progress, t0)
+            _run_local(todo, loop, spec, workers, max_cases_per_worker)
         else:
-            _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0, worker_timeout)
-    df = store.write_results(cases, records)
+            _run_dask(todo, loop, spec, scheduler, worker_timeout)
+    df = loop.save()
     store.finish_session(completed=int(state.done - state.failed), failed=int(state.failed),
                          wall_time=time.perf_counter() - t0)
     return df
@@ -183,18 +187,30 @@ def _lost(case: Case, exc: BaseException) -> dict:
 
 
 class _Loop:
-    """Polls futures, records finished cases, writes the table and reports progress."""
+    """Polls futures, records finished cases, writes the table and the time series (the one writer
+    of ``results.parquet`` and ``timeseries.parquet``: the workers write only their case
+    directories) and reports progress."""
 
-    def __init__(self, store, cases, records, state, progress, t0, slots):
+    def __init__(self, store, cases, records, state, progress, t0, series):
         self.store, self.cases, self.records, self.state = store, cases, records, state
-        self.progress, self.t0, self.slots = progress, t0, slots
+        self.progress, self.t0, self.series = progress, t0, series
+        self.slots: Callable[[], int] = lambda: 1
         self._last_write = 0.0
 
     def finish(self, case: Case, record: dict) -> None:
         self.records[case.case_id] = record
+        if record.get("outcome") == "completed":
+            own = self.store.case_series(case.case_id)
+            if own is not None:
+                self.series[case.case_id] = own
         self.state.done += 1
         self.state.failed += record.get("outcome") == "failed"
         self.state.last = record
+
+    def save(self):
+        """Write ``results.parquet`` and ``timeseries.parquet`` (in study order); returns the table."""
+        self.store.write_series({c.case_id: self.series[c.case_id] for c in self.cases if c.case_id in self.series})
+        return self.store.write_results(self.cases, self.records)
 
     def tick(self, pending: int, changed: bool) -> None:
         now = time.perf_counter()
@@ -203,7 +219,7 @@ class _Loop:
         st.running = min(self.slots(), pending)
         st.eta = st.elapsed * (st.todo - st.done) / st.done if st.done else None
         if changed and now - self._last_write > 1.0:
-            self.store.write_results(self.cases, self.records)
+            self.save()
             self._last_write = now
         if self.progress is not None:
             self.progress(st)
@@ -235,10 +251,11 @@ class _Loop:
                 self.tick(len(pending), False)
 
 
-def _run_local(todo, store, spec, records, state, cases, workers, max_cases_per_worker, progress, t0):
+def _run_local(todo, loop, spec, workers, max_cases_per_worker):
     from knotsim.study._worker import execute_case
     from knotsim.study.pool import CasePool
 
+    store = loop.store
     n = workers if workers is not None else (os.cpu_count() or 1)
     if not isinstance(n, int) or n < 1:
         raise ConfigError("workers", f"must be a positive integer, got {workers!r}")
@@ -246,19 +263,19 @@ def _run_local(todo, store, spec, records, state, cases, workers, max_cases_per_
     if max_cases_per_worker is not None and (not isinstance(max_cases_per_worker, int) or max_cases_per_worker < 1):
         raise ConfigError("max_cases_per_worker", f"must be a positive integer, got {max_cases_per_worker!r}")
     pool = CasePool(n, max_cases_per_worker)
-    loop = _Loop(store, cases, records, state, progress, t0, lambda: n)
+    loop.slots = lambda: n
     try:
         futures = {pool.submit(execute_case, _payload(c), str(store.path.resolve()), str(spec.base_dir)): c
                    for c in todo}
         loop.run(futures, lambda f: f.result())
     except BaseException:
         pool.shutdown(wait=False, cancel_futures=True)
-        store.write_results(cases, records)
+        loop.save()
         raise
     pool.shutdown(wait=True)
 
 
-def _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0, worker_timeout):
+def _run_dask(todo, loop, spec, scheduler, worker_timeout):
     try:
         from distributed import Client
     except ImportError as exc:
@@ -290,7 +307,8 @@ def _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0,
         return cache["n"]
 
     token = uuid.uuid4().hex[:8]
-    loop = _Loop(store, cases, records, state, progress, t0, slots)
+    store = loop.store
+    loop.slots = slots
     futures = {}
     try:
         for c in todo:
@@ -300,7 +318,7 @@ def _run_dask(todo, store, spec, records, state, cases, scheduler, progress, t0,
         loop.run(futures, lambda f: _dask_result(f, worker_timeout), _DaskWatch(client, worker_timeout, store.started))
     except BaseException:
         client.cancel(list(futures))
-        store.write_results(cases, records)
+        loop.save()
         raise
     finally:
         if own:

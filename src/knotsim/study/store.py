@@ -5,17 +5,25 @@ Layout of ``STUDY_DIR``::
     study.toml          the study as run (base case inlined)
     results.parquet     one row per finished case
     provenance.json     versions, git commit, machine, one entry per session (run / resume)
+    timeseries.parquet  each finished case's log thinned to one row per 0.05 s (plus its events):
+                        ``case_id``, ``time`` and the protocol's own columns (:mod:`knotsim.study.series`)
     cases/<case_id>/    one directory per finished case:
         case.json       kind, swept parameters, resolved configuration
         result.json     outcome, error, traceback, wall time (s), metrics, host (written last)
+        summary.json    a protocol case's summary (metrics, parameters, timeline, ...)
+        timeseries.parquet  the case's thinned log (gathered into the study's timeseries.parquet)
         error.txt       traceback of a failed case
         ...             the case's own outputs (trajectory.h5, log.parquet, run.json, ...)
     cases/.tmp-*        cases being run (never read as results)
+    cases.parquet       a packed study (:func:`pack_study`): the case.json, result.json and
+                        summary.json of every finished case, one row each, in place of cases/
     .lock               held by the session running the study (:class:`StudyLock`)
 
 A case directory is written under a temporary name and renamed when ``result.json`` is in it, so a
 directory ``cases/<case_id>`` is always complete; killing a study (even with SIGKILL) loses only
-the cases that were running.
+the cases that were running. A packed study reopens (:func:`load_study`, ``knotsim report``) and
+resumes like one with case directories: its finished cases are read from ``cases.parquet``, and a
+case run again (``--retry-failed``) gets a directory, whose record wins over the packed one.
 
 Columns of ``results.parquet``: ``case_id``, ``kind``, every swept parameter by its dotted key
 (lists as JSON text), ``repeat`` (only with repeats), ``outcome`` (``"completed"`` or
@@ -23,7 +31,11 @@ Columns of ``results.parquet``: ``case_id``, ``kind``, every swept parameter by 
 metric whose name clashes with one of these columns is prefixed ``metric.``; a protocol case's
 ``friction_model``, ``"surface"`` or ``"centreline"``, is one of them, and a record written before
 knotsim had surface friction reads as ``"centreline"``, the law it ran), ``traceback`` and
-``case_dir`` (relative to ``STUDY_DIR``).
+``case_dir`` (relative to ``STUDY_DIR``; of a packed case, the directory it had before packing).
+
+Columns of ``cases.parquet``: ``case_id``, ``kind``, ``outcome``, and ``case``, ``record`` and
+``summary``, the JSON text of the case's ``case.json``, ``result.json`` and ``summary.json`` (``None``
+when the case had none, e.g. a failed or a plain run case).
 """
 
 from __future__ import annotations
@@ -43,9 +55,13 @@ from pathlib import Path
 from knotsim._util.jsonio import json_safe, read_json, write_json
 from knotsim._util.toml import write_toml
 
-__all__ = ["StudyLock", "StudyStore", "load_study", "provenance_info", "record_problem", "run_case_atomically"]
+__all__ = ["StudyLock", "StudyStore", "load_study", "pack_study", "provenance_info", "record_problem",
+           "run_case_atomically"]
 
 CASES = "cases"
+PACK = "cases.parquet"
+SERIES = "timeseries.parquet"
+SUMMARY = "summary.json"
 TMP_PREFIX = ".tmp-"
 RECORD = "result.json"
 LOCK = ".lock"
@@ -97,6 +113,7 @@ def run_case_atomically(case: dict, study_dir: str | os.PathLike, base_dir: str 
     try:
         metrics = get_executor(case["kind"])(case["config"], tmp, Path(base_dir))
         outcome = "completed"
+        _write_case_series(tmp, case)
     except Exception as exc:  # a failing case never stops the others
         outcome = "failed"
         error = f"{type(exc).__name__}: {exc}"
@@ -133,6 +150,20 @@ def run_case_atomically(case: dict, study_dir: str | os.PathLike, base_dir: str 
             return done
     _fsync_dir(cases_dir)
     return json_safe(record)  # what result.json holds
+
+
+def _write_case_series(case_dir: Path, case: dict) -> None:
+    """The case's thinned log (``timeseries.parquet``, :mod:`knotsim.study.series`) next to its
+    ``log.parquet``; a log that cannot be read costs the series, never the case."""
+    from knotsim.study.series import write_case_series
+
+    config = case.get("config") or {}
+    protocol = config.get("protocol") if isinstance(config, dict) else None
+    try:
+        summary = read_json(case_dir / SUMMARY) if (case_dir / SUMMARY).is_file() else None
+        write_case_series(case_dir, protocol if isinstance(protocol, str) else None, summary)
+    except (OSError, ValueError, KeyError):
+        (case_dir / SERIES).unlink(missing_ok=True)
 
 
 _RECORD_KEYS = ("case_id", "outcome", "metrics")
@@ -223,6 +254,7 @@ class StudyStore:
     def __init__(self, path: str | os.PathLike):
         self.path = Path(path)
         self.cases_dir = self.path / CASES
+        self._pack_cache: tuple[tuple[float, int] | None, dict[str, dict]] = (None, {})
 
     # --------------------------------------------------------------- paths and state
     @property
@@ -237,20 +269,117 @@ class StudyStore:
     def provenance_file(self) -> Path:
         return self.path / "provenance.json"
 
+    @property
+    def pack_file(self) -> Path:
+        return self.path / PACK
+
+    @property
+    def series_file(self) -> Path:
+        return self.path / SERIES
+
     def exists(self) -> bool:
         """True when the directory already holds a study."""
-        return self.study_file.is_file() or self.cases_dir.is_dir()
+        return self.study_file.is_file() or self.cases_dir.is_dir() or self.pack_file.is_file()
 
     def case_dir(self, case_id: str) -> Path:
         return self.cases_dir / case_id
 
+    def packed(self) -> dict[str, dict]:
+        """The cases of ``cases.parquet`` (a packed study; empty when there is none), by case id:
+        ``{"case", "record", "summary"}`` each, the parsed ``case.json``, ``result.json`` and
+        ``summary.json`` (``None`` when the case had none). Records that are not valid (see
+        :func:`record_problem`) are left out."""
+        key = _mtime(self.pack_file)
+        if key is None:
+            return {}
+        if self._pack_cache[0] != key:
+            import pandas as pd
+
+            out = {}
+            for row in pd.read_parquet(self.pack_file).to_dict("records"):
+                entry = {k: (json.loads(row[k]) if isinstance(row.get(k), str) else None)
+                         for k in ("case", "record", "summary")}
+                if record_problem(entry["record"], row["case_id"]) is None:
+                    out[row["case_id"]] = entry
+            self._pack_cache = (key, out)
+        return self._pack_cache[1]
+
     def read_record(self, case_id: str) -> dict | None:
-        """The record of a finished case, or ``None``."""
-        return _read_summary(self.case_dir(case_id))
+        """The record of a finished case (its directory's, else the packed one), or ``None``."""
+        rec = _read_summary(self.case_dir(case_id))
+        if rec is None:
+            rec = (self.packed().get(case_id) or {}).get("record")
+        return rec
+
+    def read_summary(self, case_id: str) -> dict | None:
+        """The ``summary.json`` of a finished case (its directory's, else the packed one), or
+        ``None`` (a failed case, a plain run case, an unknown id)."""
+        try:
+            return read_json(self.case_dir(case_id) / SUMMARY)
+        except (OSError, json.JSONDecodeError, UnicodeDecodeError):
+            return (self.packed().get(case_id) or {}).get("summary")
+
+    def read_series(self, case_id: str | None = None):
+        """The thinned time series (:mod:`knotsim.study.series`) of case ``case_id`` (without the
+        ``case_id`` column), or of every case (``None``: with it), as a DataFrame; ``None`` when the
+        study has none for it (studies run before knotsim kept them)."""
+        import pandas as pd
+
+        if case_id is not None:
+            own = self.case_dir(case_id) / SERIES
+            if own.is_file():
+                return pd.read_parquet(own)
+        if not self.series_file.is_file():
+            return None
+        df = pd.read_parquet(self.series_file)
+        if case_id is None:
+            return df
+        rows = df[df["case_id"] == case_id]
+        if rows.empty:
+            return None
+        return rows.drop(columns="case_id").dropna(axis=1, how="all").reset_index(drop=True)
+
+    def case_series(self, case_id: str):
+        """The thinned series a finished case directory holds (``cases/<id>/timeseries.parquet``),
+        or ``None``."""
+        import pandas as pd
+
+        path = self.case_dir(case_id) / SERIES
+        try:
+            return pd.read_parquet(path) if path.is_file() else None
+        except (OSError, ValueError):
+            return None
+
+    def series_by_case(self, case_dirs=()) -> dict:
+        """``{case_id: DataFrame}``: the series of ``timeseries.parquet`` (every case in it), then
+        those of the case directories ``case_dirs`` (ids; theirs win)."""
+        out: dict = {}
+        old = self.read_series()
+        if old is not None:
+            for cid, g in old.groupby("case_id", sort=False):
+                out[cid] = g.drop(columns="case_id").dropna(axis=1, how="all").reset_index(drop=True)
+        for cid in case_dirs:
+            own = self.case_series(cid)
+            if own is not None:
+                out[cid] = own
+        return out
+
+    def write_series(self, series: dict) -> None:
+        """Write ``timeseries.parquet`` from ``{case_id: DataFrame}`` (``time`` and the case's own
+        columns; in the given order), atomically; nothing when ``series`` is empty."""
+        import pandas as pd
+
+        frames = [df.assign(case_id=cid) for cid, df in series.items() if df is not None and len(df)]
+        if not frames:
+            return
+        table = pd.concat(frames, ignore_index=True)
+        table = table[["case_id", *(c for c in table.columns if c != "case_id")]]
+        _replace_parquet(table, self.series_file)
 
     def finished(self) -> dict[str, dict]:
-        """Records of every finished case directory, by case id."""
-        out = {}
+        """Records of every finished case, by case id: the packed ones (``cases.parquet``), then
+        every finished case directory (which wins over a packed record of the same case)."""
+        out = {cid: entry["record"] for cid, entry in self.packed().items()}
         if self.cases_dir.is_dir():
             for d in self.cases_dir.iterdir():
                 if d.name.startswith("."):
@@ -365,14 +494,28 @@ class StudyStore:
         import pandas as pd
 
         df = results_frame(cases, records)
-        tmp = self.results_file.with_name(f".results.{uuid.uuid4().hex[:6]}.parquet")
-        try:
-            df.to_parquet(tmp, index=False)
-            os.replace(tmp, self.results_file)
-        except BaseException:  # a full disk must not leave a half-written temporary file behind
-            tmp.unlink(missing_ok=True)
-            raise
+        _replace_parquet(df, self.results_file)
         return pd.read_parquet(self.results_file)
+
+
+def _replace_parquet(df, path: Path) -> None:
+    """Write ``df`` to ``path`` through a temporary file renamed over it (readers see the old file
+    or the new one, never half of one)."""
+    tmp = path.with_name(f".{path.stem}.{uuid.uuid4().hex[:6]}.parquet")
+    try:
+        df.to_parquet(tmp, index=False)
+        os.replace(tmp, path)
+    except BaseException:  # a full disk must not leave a half-written temporary file behind
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def _mtime(path: Path) -> tuple[float, int] | None:
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return (st.st_mtime, st.st_size)
 
 
 class StudyLock:
@@ -507,6 +650,111 @@ def results_frame(cases: list, records: dict[str, dict]):
 def _rows_values(rows: list[dict], col: str) -> list:
     """The raw values of column ``col`` in ``rows`` (missing keys left out)."""
     return [r[col] for r in rows if col in r]
+
+
+def _read_json_or_none(path: Path):
+    try:
+        return read_json(path)
+    except (OSError, json.JSONDecodeError, UnicodeDecodeError):
+        return None
+
+
+def _dump(value) -> str | None:
+    return None if value is None else json.dumps(json_safe(value))
+
+
+def pack_study(study_dir: str | os.PathLike, *, keep_case_dirs: bool = False) -> dict:
+    """Fold the case directories of a study into one file each: ``cases.parquet`` (every finished
+    case's ``case.json``, ``result.json`` and ``summary.json``) and ``timeseries.parquet`` (their
+    thinned logs, :mod:`knotsim.study.series`), then remove the case directories.
+
+    What a packed study keeps: ``study.toml``, ``results.parquet``, ``provenance.json``, the two
+    files above and the report with its figures; what it drops with the case directories: each
+    case's full log, trajectory and checkpoint. It reopens (:func:`load_study`, ``knotsim report``)
+    and resumes (its finished cases are reused) as before. Packing a study packed already adds
+    the case directories run since (their records win) to what it holds.
+
+    Parameters
+    ----------
+    study_dir:
+        The study directory (with ``study.toml``); it must not be running (its lock is taken).
+    keep_case_dirs:
+        Write the two files but leave the case directories where they are.
+
+    Returns
+    -------
+    dict
+        ``cases`` (the number packed), ``series`` (cases with a time series), ``removed`` (case
+        directories removed) and ``results_rewritten`` (True when ``results.parquet`` lacked
+        finished cases and was written again from the records).
+
+    Raises
+    ------
+    ConfigError
+        When ``study_dir`` is not a study directory, or another session runs it.
+    """
+    import pandas as pd
+
+    from knotsim.errors import ConfigError
+    from knotsim.study.series import event_times, thin_log
+
+    store = StudyStore(study_dir)
+    if not store.study_file.is_file():
+        raise ConfigError("study_dir", f"{str(study_dir)!r} is not a study directory (no study.toml)")
+    with StudyLock(study_dir):
+        entries = dict(store.packed())
+        dirs: list[Path] = []
+        if store.cases_dir.is_dir():
+            for d in sorted(store.cases_dir.iterdir()):
+                rec = None if d.name.startswith(".") or not d.is_dir() else _read_summary(d)
+                if rec is None:  # a case being run, or a corrupt one (resume runs it again): left alone
+                    continue
+                entries[d.name] = {"case": _read_json_or_none(d / "case.json"), "record": rec,
+                                   "summary": _read_json_or_none(d / SUMMARY)}
+                dirs.append(d)
+        try:
+            from knotsim.study.spec import load_study_spec
+
+            cases: list = load_study_spec(store.study_file).expand()
+        except (ConfigError, OSError):  # a study file this version cannot expand: the records' order
+            cases = []
+        order = {c.case_id: i for i, c in enumerate(cases)}
+        ids = sorted(entries, key=lambda cid: (order.get(cid, len(order)), cid))
+        rows = [{"case_id": cid, "kind": entries[cid]["record"].get("kind"),
+                 "outcome": entries[cid]["record"]["outcome"],
+                 **{k: _dump(entries[cid][k]) for k in ("case", "record", "summary")}} for cid in ids]
+        if rows or store.pack_file.is_file():  # (a study without case records gets no empty file)
+            table = pd.DataFrame(rows, columns=["case_id", "kind", "outcome", "case", "record", "summary"])
+            _replace_parquet(table.astype(object), store.pack_file)
+
+        series = store.series_by_case([d.name for d in dirs])
+        for d in dirs:
+            if d.name not in series and (d / "log.parquet").is_file():  # run before studies kept series
+                config = (entries[d.name]["case"] or {}).get("config") or {}
+                try:
+                    series[d.name] = thin_log(pd.read_parquet(d / "log.parquet"), config.get("protocol"),
+                                              event_times(entries[d.name]["summary"]))
+                except (OSError, ValueError):
+                    pass
+        store.write_series({cid: series[cid] for cid in ids if cid in series})
+
+        rewritten = False
+        have = set(pd.read_parquet(store.results_file, columns=["case_id"])["case_id"]) \
+            if store.results_file.is_file() else set()
+        if cases and not set(ids) <= have:
+            store.write_results(cases, {cid: e["record"] for cid, e in entries.items()})
+            rewritten = True
+        removed = 0
+        if not keep_case_dirs:
+            for d in dirs:
+                store.discard(d.name)
+                removed += 1
+            try:
+                store.cases_dir.rmdir()  # only when nothing is left in it
+            except OSError:
+                pass
+    return {"cases": len(ids), "series": sum(cid in series for cid in ids), "removed": removed,
+            "results_rewritten": rewritten}
 
 
 def load_study(study_dir: str | os.PathLike):
