@@ -60,3 +60,40 @@ def test_committed_study_report_is_rebuilt(tmp_path):
     assert res.exit_code == 0, res.output
     text = (tmp_path / "report.md").read_text()
     assert "single_rod_reef" in text and "single_rod_granny" in text
+
+
+PACKED = [d for d in COMMITTED if (d / "cases.parquet").is_file()]
+
+
+def test_committed_studies_are_packed():
+    """No committed study keeps per-case folders: their records are in one cases.parquet each."""
+    assert len(PACKED) >= 15
+    assert not [d for d in COMMITTED if (d / "cases").is_dir()]
+
+
+@pytest.mark.parametrize("study_dir", PACKED, ids=lambda p: p.name)
+def test_packed_records_give_the_committed_table(study_dir):
+    """The packed records rebuild the committed results table: the same cases, outcomes and numbers."""
+    import pandas as pd
+
+    from knotsim.study.store import StudyStore, results_frame
+
+    store = StudyStore(study_dir)
+    packed = store.packed()
+    rebuilt = results_frame([e["case"] for e in packed.values()], {c: e["record"] for c, e in packed.items()})
+    table = ks.load_study(study_dir).set_index("case_id")
+    rebuilt = rebuilt.set_index("case_id").loc[table.index]
+    numbers = [c for c in table.columns if c in rebuilt.columns and c != "wall_time"
+               and pd.api.types.is_numeric_dtype(table[c]) and pd.api.types.is_numeric_dtype(rebuilt[c])]
+    assert len(numbers) > 3
+    pd.testing.assert_frame_equal(rebuilt[numbers].astype(float), table[numbers].astype(float), check_dtype=False)
+    assert (rebuilt["outcome"] == table["outcome"]).all()
+
+
+def test_packed_study_report_matches_the_committed_one(tmp_path):
+    d = ROOT / "docs" / "studies" / "security_mu"
+    res = CliRunner().invoke(main, ["report", str(d), "-o", str(tmp_path / "report.md")])
+    assert res.exit_code == 0, res.output
+    tables = [[ln for ln in p.read_text().splitlines() if ln.startswith("|")]
+              for p in (d / "report.md", tmp_path / "report.md")]
+    assert tables[0] and tables[0] == tables[1]
