@@ -2,7 +2,7 @@
 
 The reef bend is known to capsize when one rope's standing end and tail are pulled apart: that rope
 straightens and the other turns into two lark's heads round it, which then slide off its end (the
-practitioners' objection to the reef as a bend, docs/atlas.md). This script loads the bends of the
+practitioners' objection to the reef as a bend, docs/results/atlas.md). This script loads the bends of the
 security study that way and reports what ``knot-security``'s capsize rule
 (:data:`knotsim.protocols.knot_security.CAPSIZE_STRAIGHT`) saw: each bend is set as in
 ``docs/studies/security_critical`` (N = 201, dt = 2.5 ms, 10 mN on three ends for 3 s, relaxed to

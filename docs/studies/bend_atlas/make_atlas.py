@@ -2,7 +2,7 @@
 
     python docs/studies/bend_atlas/make_atlas.py STUDY_DIR [OUT_DIR]
 
-Writes to OUT_DIR (default: this folder): ``ranking.md`` (the tables docs/atlas.md quotes),
+Writes to OUT_DIR (default: this folder): ``ranking.md`` (the tables docs/results/atlas.md quotes),
 ``atlas.csv`` (one row per bend and mu, main table) and ``renders/<bend>.png`` (start | peak | slip
 of the mu = 0.3 displacement case, seen from above, framed on the knot). Nothing here is fitted:
 the numbers are the study's metrics, the orderings are sorted holding loads.
