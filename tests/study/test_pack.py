@@ -23,18 +23,18 @@ from knotsim.study.store import StudyStore, pack_study
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-TINY = {
-    "name": "tiny",
-    "base": {
-        "rods": [{"name": "rope", "shape": "straight", "length": 0.1, "n_nodes": 11, "radius": 1e-3,
-                  "youngs_modulus": 1e7, "density": 1000.0}],
-        "bc": [{"type": "move", "name": "left", "nodes": [0, 1], "velocity": [-1e-3, 0.0, 0.0]},
-               {"type": "move", "name": "right", "nodes": [-2, -1], "velocity": [1e-3, 0.0, 0.0]}],
-        "solver": {"dt": 5e-3},
-        "run": {"duration": 0.2, "output_interval": 0.1},
-    },
-    "grid": {"bc[1].velocity[0]": [1e-3, 2e-3]},
-}
+def _end(name: str, nodes: list[int], speed: float) -> dict:
+    """An end of the rope moved along x at ``speed`` m/s."""
+    return {"type": "move", "name": name, "nodes": nodes, "velocity": [speed, 0.0, 0.0]}
+
+
+#: A 10 cm rod stretched from both ends for 0.2 s (two cases: two speeds of its right end).
+TINY = {"name": "tiny",
+        "base": {"rods": [dict(name="rope", shape="straight", length=0.1, n_nodes=11, radius=1e-3,
+                               youngs_modulus=1e7, density=1000.0)],
+                 "bc": [_end("left", [0, 1], -1e-3), _end("right", [-2, -1], 1e-3)],
+                 "solver": {"dt": 5e-3}, "run": {"duration": 0.2, "output_interval": 0.1}},
+        "grid": {"bc[1].velocity[0]": [1e-3, 2e-3]}}
 
 
 @pytest.fixture(scope="module")
