@@ -18,9 +18,11 @@ import pytest
 from knotsim.knots.library import get_knot
 from knotsim.knots.topology import gauss_linking_number
 from knotsim.protocols import run_protocol
+from knotsim.protocols.bends import link_key, split_jones
 from knotsim.protocols.metrics import knot_status
 from knotsim.protocols.pipeline import _topology, topology_keys
-from knotsim.protocols.two_rope_bend import APART_RADII, TwoRopeBend, link_key, rope_gap, split_jones
+from knotsim.protocols.rope_measures import APART_RADII, rope_gap
+from knotsim.protocols.two_rope_bend import TwoRopeBend
 
 BENDS = ["reef", "granny", "thief", "grief", "sheet", "double_sheet", "carrick", "hunters", "zeppelin", "ashley",
          "alpine_butterfly", "double_fishermans"]
@@ -43,7 +45,7 @@ def _apart(ropes: list[np.ndarray], dz: float = 2.0) -> list[np.ndarray]:
 
 
 def _ctx():
-    return SimpleNamespace(data={"ends_interleaved": False})
+    return SimpleNamespace(plan=SimpleNamespace(ends=SimpleNamespace(interleaved=False)), topology_end=None)
 
 
 @pytest.mark.parametrize("name", BENDS)
@@ -107,14 +109,14 @@ def test_split_from_the_start_is_untied_only_when_apart():
     start = _topology(ropes, None, None)
     assert link_key(start) == "unlink"
     assert rope_gap(ropes) < APART_RADII * h < rope_gap(_apart(ropes))
-    tied = SimpleNamespace(data={"topology_end": start}, radius=h)
+    tied = SimpleNamespace(topology_end=start, radius=h)
     assert proto.verdict(tied, {"ropes_apart": False, "decidable": True}) is None
     assert proto.verdict(tied, {"ropes_apart": False, "decidable": True, "slip_onset": {"time": 3.0}}) == "slipped"
-    gone = SimpleNamespace(data={"topology_end": _topology(_apart(ropes), None, None)}, radius=h)
+    gone = SimpleNamespace(topology_end=_topology(_apart(ropes), None, None), radius=h)
     assert proto.verdict(gone, {"ropes_apart": True, "decidable": True}) == "untied"
     # the ropes of a sheet bend apart but still linked (lk -1): not untied
     sheet = _topology(_ropes("sheet"), None, None)
-    assert proto.verdict(SimpleNamespace(data={"topology_end": sheet}), {"ropes_apart": True, "decidable": True}) is None
+    assert proto.verdict(SimpleNamespace(topology_end=sheet), {"ropes_apart": True, "decidable": True}) is None
     assert knot_status(*topology_keys(proto, _ctx(), start, start), verdict="untied") == "untied"
 
 

@@ -80,7 +80,7 @@ def test_single_rod_pre_pull_with_one_end_held():
     _, ctx, _, _ = build_protocol_run("single-rod-bend", "single_rod_reef", quick=True, overrides=ov)
     _, ctx1, spec1, _ = build_protocol_run("single-rod-bend", "single_rod_reef", quick=True,
                                            overrides={**ov, "held_end": "0:-1"})
-    assert ctx.data["t_pre"] == pytest.approx(2.5) and ctx1.data["t_pre"] == pytest.approx(5.0)
+    assert ctx.t_pre == pytest.approx(2.5) and ctx1.t_pre == pytest.approx(5.0)
     pull = _bcs(spec1)["pull_end"]
     assert pull["nodes"] == [0, 1]
     assert np.linalg.norm(pull["waypoints"]["points"][1]) == pytest.approx(0.1)

@@ -34,7 +34,7 @@ def test_stages_are_force_groups_with_their_windows():
     assert load["start"] == pytest.approx(1.2) and load["type"] == "force"
     assert np.linalg.norm(load["ramp"]["from"]) == pytest.approx(0.002)
     np.testing.assert_allclose(np.asarray(load["ramp"]["rate"]) / np.linalg.norm(load["ramp"]["rate"]),
-                               ctx.data["loaded_local"][0][2])
+                               ctx.plan.loaded_local[0][3])
 
 
 def test_slide_and_hold_modes():
@@ -83,7 +83,7 @@ def test_one_rope_knot_needs_an_anchor_and_no_bend_ends():
 def test_self_tail_lengths_find_where_a_rope_meets_itself():
     """A rope along x that turns back on itself (centre lines 2h apart, touching) over its last part:
     the first end is outside the knot up to where the returning strand begins, the last end not at all."""
-    from knotsim.protocols.two_rope_bend import self_tail_lengths
+    from knotsim.protocols.rope_measures import self_tail_lengths
 
     h, seg = 2e-3, 1e-3
     out = np.column_stack([np.arange(0.0, 0.5 + 1e-12, seg), np.zeros(501), np.zeros(501)])
@@ -107,9 +107,11 @@ class _Ctx:
 
     def __init__(self, **params):
         base = dict(KnotSecurity.defaults)
+        base.update(set_ramp=0.5, set_hold=0.5, relax_time=0.5)  # the set ends at 1 s, the load begins at 1.5 s
         base.update(params)
         self.params = type("P", (dict,), {"contact": {}})(base)
-        self.data = {"t_pre": 1.5, "t_set": 1.0, "t_settle": 0.0}
+        self.t_pre, self.t_settle = 1.5, 0.0
+        self.plan = self.phase_record = self.topology_end = None
         self.radius = 2e-3
         self.EI = 2.26e-6
         self.geometry = None
@@ -270,7 +272,7 @@ def test_set_until_still_holds_the_set_until_the_knot_stops_moving(tmp_path):
 def test_turning_in_knot():
     """A rope's turning between its entry points: 0 straight, pi round a half circle, and only the
     part inside the knot counts."""
-    from knotsim.protocols.two_rope_bend import turning_in_knot
+    from knotsim.protocols.rope_measures import turning_in_knot
 
     straight = np.column_stack([np.linspace(0, 1, 101), np.zeros(101), np.zeros(101)])
     assert turning_in_knot(straight, 0.2, 0.2) == pytest.approx(0.0, abs=1e-12)
@@ -472,7 +474,7 @@ def test_tail_length_follows_a_rope_sliding_through_continuously():
     apart. Sliding A along its axis by s shortens its tail from the first end by exactly s: the entry
     point into B's cut-off is fixed in space at 0.3 − sqrt(cut-off² − (2h)²). The measure follows s
     between nodes (a tail counted in whole edges would move in steps of l = 5 mm)."""
-    from knotsim.protocols.two_rope_bend import tail_lengths
+    from knotsim.protocols.rope_measures import tail_lengths
 
     h, delta, seg = 1.6e-3, 5e-4, 5e-3
     ya = np.arange(-0.1, 0.1 + 1e-12, seg)

@@ -159,7 +159,8 @@ def test_two_rope_bend_outcome_uses_tail_draw_in():
     tails = np.where(t < 30.0, 0.6, 0.6 - 0.9 * v * (t - 30.0))
     f = np.where(t < 30.0, 0.011 * t / 30.0, 0.0095)
     log = _log(t, f, tail_a=tails / 2, tail_b=tails / 2, u_pull=v * t)
-    ctx = SimpleNamespace(params=resolve_params(proto.defaults, {"pull_speed": v}))
+    bare = {"t_pre": 0.0, "t_settle": 0.0, "plan": None, "geometry": None, "topology_end": None}
+    ctx = SimpleNamespace(params=resolve_params(proto.defaults, {"pull_speed": v}), **bare)
     m = proto.metrics(ctx, log)
     assert proto.slipped(ctx, m) and 29.0 <= m["slip_onset"]["time"] <= 30.5
     assert m["force_drop_onset"] is None
@@ -169,7 +170,7 @@ def test_two_rope_bend_outcome_uses_tail_draw_in():
     # force control: the pulled end runs away at 20 s
     u = np.where(t < 20.0, 1e-3 * t, 0.02 + 0.2 * (t - 20.0))
     flog = _log(t, 1e-3 * t, tail_a=0.3, tail_b=0.3, u_pull=u)
-    fctx = SimpleNamespace(params=resolve_params(proto.defaults, {"mode": "force"}))
+    fctx = SimpleNamespace(params=resolve_params(proto.defaults, {"mode": "force"}), **bare)
     fm = proto.metrics(fctx, flog)
     assert fm["slip_onset"]["criterion"] == "runaway" and 19.5 <= fm["slip_onset"]["time"] <= 20.5
     assert fm["F_norm_hold"] == pytest.approx(0.02, rel=0.05)

@@ -235,7 +235,8 @@ def test_bend_end_interleaving_and_mirror_free_key():
     from types import SimpleNamespace
 
     from knotsim.knots.library import get_knot
-    from knotsim.protocols.two_rope_bend import TwoRopeBend, ends_interleaved
+    from knotsim.protocols.rope_measures import ends_interleaved
+    from knotsim.protocols.two_rope_bend import TwoRopeBend
 
     for name, expected in (("reef_bend", False), ("granny_bend", False), ("thief_bend", True),
                            ("grief_bend", True)):
@@ -246,8 +247,8 @@ def test_bend_end_interleaving_and_mirror_free_key():
     left = {"signature": "6_1_left", "knot_type": "6_1_left", "rolfsen": "6_1"}
     right = {"signature": "6_1_right", "knot_type": "6_1_right", "rolfsen": "6_1"}
     unknot = {"signature": "unknot", "knot_type": "unknot", "rolfsen": "0_1"}
-    inter = SimpleNamespace(data={"ends_interleaved": True})
-    side = SimpleNamespace(data={"ends_interleaved": False})
+    inter = SimpleNamespace(plan=SimpleNamespace(ends=SimpleNamespace(interleaved=True)), topology_end=None)
+    side = SimpleNamespace(plan=SimpleNamespace(ends=SimpleNamespace(interleaved=False)), topology_end=None)
     assert proto.topology_key(inter, left) == proto.topology_key(inter, right) == "6_1"
     assert proto.topology_key(inter, unknot) == "unknot"  # untying still shows
     assert proto.topology_key(side, left) != proto.topology_key(side, right)
@@ -263,7 +264,7 @@ def test_unidentified_end_compared_by_invariants():
     from knotsim.protocols.pipeline import topology_keys
     from knotsim.protocols.two_rope_bend import TwoRopeBend
 
-    ctx = SimpleNamespace(data={"ends_interleaved": False})
+    ctx = SimpleNamespace(plan=SimpleNamespace(ends=SimpleNamespace(interleaved=False)), topology_end=None)
     reef = {"signature": "reef", "knot_type": "reef", "rolfsen": "3_1#3_1*", "alexander": [1, -2, 3, -2, 1],
             "determinant": 9}
     same = {"signature": "unknown (Alexander [1, -2, 3, -2, 1], det 9)", "knot_type": "unknown", "rolfsen": None,

@@ -20,7 +20,7 @@ IDEAL_REEF = 2 * 16.37  # ideal ropelength of 3_1 # 3_1*, diameters
 
 def _ctx(**overrides):
     proto, ctx, _spec, _ = build_protocol_run("single-rod-bend", "single_rod_reef", overrides=overrides or None)
-    ctx.data["topology_end"] = {"rolfsen": "3_1#3_1*"}
+    ctx.topology_end = {"rolfsen": "3_1#3_1*"}
     return proto, ctx
 
 

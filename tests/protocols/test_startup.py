@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
-from knotsim.protocols.overhand_pull import OverhandPull
+from knotsim.protocols.overhand_pull import OverhandPlan, OverhandPull
 from knotsim.protocols.params import COMMON_DEFAULTS, resolve_params
 from knotsim.protocols.timeline import apply_settle, measured_log, merge_settle_reactions, pull_start
 from knotsim.protocols.two_rope_bend import TwoRopeBend
@@ -28,7 +28,8 @@ def test_overhand_peak_and_force_drop_skip_the_transient():
     proto = OverhandPull()
     t = np.linspace(0.005, 7.0, 1400)
     log = _ringing_log(t, e=0.7 - 0.06 * t)
-    ctx = SimpleNamespace(params=resolve_params({**COMMON_DEFAULTS, **proto.defaults}), data={"e0": 0.7})
+    ctx = SimpleNamespace(params=resolve_params({**COMMON_DEFAULTS, **proto.defaults}), t_settle=0.0, t_pre=0.0,
+                          plan=OverhandPlan(np.array([0.0, 1.0, 0.0]), 0.7, "pull_start", 0.012))
     m = proto.metrics(ctx, log)
     assert m["F_norm_peak_time"] > 2.0 and m["F_norm_peak"] == pytest.approx(0.002, rel=0.01)
     assert m["force_drop"] is None  # the ringing's fall inside the first 2 s is no loop inversion
@@ -40,7 +41,7 @@ def test_two_rope_peak_skips_the_transient():
     proto = TwoRopeBend()
     t = np.linspace(0.005, 6.0, 1200)
     log = _ringing_log(t, tail_a=0.3, tail_b=0.3, u_pull=0.01 * t)
-    ctx = SimpleNamespace(params=resolve_params(proto.defaults))
+    ctx = SimpleNamespace(params=resolve_params(proto.defaults), t_pre=0.0, t_settle=0.0, plan=None, geometry=None)
     m = proto.metrics(ctx, log)
     assert m["F_norm_peak_time"] >= 2.0 and m["F_norm_peak"] == pytest.approx(0.002, rel=0.01)
     short = proto.metrics(ctx, log[log["time"] <= 1.5])
@@ -48,7 +49,7 @@ def test_two_rope_peak_skips_the_transient():
 
 
 def test_settling_shifts_the_loading_and_holds_its_nodes():
-    ctx = SimpleNamespace(data={"t_pre": 0.5}, bc=[
+    ctx = SimpleNamespace(t_pre=0.5, bc=[
         {"type": "clamp", "name": "held", "rod": 0, "nodes": [0, 1]},
         {"type": "hold", "name": "knot_hold", "rod": 0, "nodes": [9], "stop": 3.0},
         {"type": "move", "name": "pull", "rod": 1, "nodes": [-2, -1], "velocity": [0.01, 0, 0], "twist": False},

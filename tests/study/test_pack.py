@@ -91,8 +91,10 @@ class _Ctx:
     """The parts of a RunContext that :meth:`KnotSecurity.metrics` reads."""
 
     def __init__(self):
-        self.params = type("P", (dict,), {"contact": {}})(dict(KnotSecurity.defaults))
-        self.data = {"t_pre": 1.5, "t_set": 1.0, "t_settle": 0.0}
+        base = {**KnotSecurity.defaults, "set_ramp": 0.5, "set_hold": 0.5, "relax_time": 0.5}  # the load at 1.5 s
+        self.params = type("P", (dict,), {"contact": {}})(base)
+        self.t_pre, self.t_settle = 1.5, 0.0
+        self.plan = self.phase_record = self.topology_end = None
         self.radius, self.EI, self.geometry = 2e-3, 2.26e-6, None
 
 

@@ -105,7 +105,10 @@ class RunContext:
 
     ``bc`` is the list of boundary-condition tables (run-file form, see ``docs/run-files.md``) the
     protocol's :meth:`LoadingProtocol.setup` appends to; ``model`` is set once the run is built
-    (for :meth:`LoadingProtocol.prepare` and :meth:`LoadingProtocol.record`)."""
+    (for :meth:`LoadingProtocol.prepare` and :meth:`LoadingProtocol.record`). ``plan`` is the
+    protocol's own description of the run (a frozen dataclass of its own: ends, axes, groups, stage
+    times), made by :meth:`LoadingProtocol.setup` and completed by :meth:`LoadingProtocol.prepare`
+    once the model exists; the stage times the pipeline reads are fields here."""
 
     params: Params
     geometry: Any  # ProtocolGeometry
@@ -114,7 +117,18 @@ class RunContext:
     length: float  # m
     bc: list[dict] = field(default_factory=list)
     model: Any = None
-    data: dict[str, Any] = field(default_factory=dict)  # protocol scratch space (axis, groups, ...)
+    #: s of settling before the protocol's loading (:func:`~knotsim.protocols.timeline.apply_settle`)
+    t_settle: float = 0.0
+    #: the loading groups held still while settling (:func:`~knotsim.protocols.timeline.apply_settle`)
+    settle_groups: list[str] = field(default_factory=list)
+    #: s of the protocol's own stages before the measured load (pre-pull, cinching, set and relax)
+    t_pre: float = 0.0
+    #: the protocol's own plan of the run (its dataclass), or ``None``
+    plan: Any = None
+    #: what a :class:`Phase` of the run found (``Phase.record``), or ``None``
+    phase_record: dict[str, Any] | None = None
+    #: the topology record at the end of the run (set by the pipeline before the metrics)
+    topology_end: dict[str, Any] | None = None
 
     def add_bc(self, kind: str, name: str, **keys: Any) -> None:
         """Append a boundary condition ``{"type": kind, "name": name, **keys}`` (run-file keys:
@@ -152,15 +166,16 @@ class LoadingProtocol:
     #: are computed); the summary gives them on the run's time axis. Metric tables with a ``"time"``
     #: entry (slip onsets, ...) are events too and need no listing.
     event_time_keys: tuple[str, ...] = ()
-    #: Name of the protocol's own stage before the measured load (``ctx.data["t_pre"]``), if any.
+    #: Name of the protocol's own stage before the measured load (``ctx.t_pre`` s), if any.
     pre_stage_name: str = "pre-stage"
     #: Name of the measured stage.
     load_stage_name: str = "pull"
 
     # -- hooks ---------------------------------------------------------------------------
     def setup(self, ctx: RunContext) -> None:
-        """Append the boundary conditions to ``ctx.bc`` (with :meth:`RunContext.add_bc`) and put
-        anything the other hooks need in ``ctx.data``."""
+        """Append the boundary conditions to ``ctx.bc`` (with :meth:`RunContext.add_bc`), set
+        ``ctx.t_pre`` (s of the protocol's own stages before the measured load) and put what the other
+        hooks need in ``ctx.plan``."""
         raise NotImplementedError
 
     def prepare(self, ctx: RunContext) -> None:
@@ -226,11 +241,10 @@ class LoadingProtocol:
 
     def stages(self, ctx: RunContext, t_end: float) -> list[tuple[str, float, float]]:
         """``[(name, start, end), ...]`` (s of run time) of the run's stages up to ``t_end``: settling
-        (``settle_time``), the protocol's pre-stage (:attr:`pre_stage_name`, ``ctx.data["t_pre"]``) and
+        (``settle_time``), the protocol's pre-stage (:attr:`pre_stage_name`, ``ctx.t_pre``) and
         the measured stage (:attr:`load_stage_name`). Stages of no length are left out."""
-        data = getattr(ctx, "data", {}) or {}
-        t_settle = float(data.get("t_settle", 0.0))
-        t_load = t_settle + float(data.get("t_pre", 0.0))
+        t_settle = float(ctx.t_settle)
+        t_load = t_settle + float(ctx.t_pre)
         out = [("settle", 0.0, t_settle), (self.pre_stage_name, t_settle, t_load), (self.load_stage_name, t_load, t_end)]
         return [(n, a, min(b, t_end)) for n, a, b in out if b > a and a < t_end]
 

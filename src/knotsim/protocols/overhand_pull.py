@@ -36,6 +36,7 @@ then the pull speed grows over 0.5 s (``ramp_time``), and the peak is taken afte
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -55,6 +56,18 @@ def force_drop(log, transient: float = 0.0) -> dict | None:
     fmax = float(np.max(moving_average(log, "F_norm", 0.5)[late])) if late.any() else 0.0
     return slip_onset(log, "F_norm", mode="drop", drop_fraction=0.2, min_force=0.25 * max(fmax, 1e-12),
                       smooth=0.5, t0=t_skip)
+
+
+@dataclass(frozen=True)
+class OverhandPlan:
+    """The run of an overhand pull: ``axis`` (3,) unit vector from the start end to the pulled end,
+    ``e0`` (m) the shortening of the drawn knot, the reaction group of the start end
+    (``start_group``) and ``separation_speed`` (m/s, the rate at which ``e`` shrinks)."""
+
+    axis: np.ndarray
+    e0: float
+    start_group: str
+    separation_speed: float
 
 
 class OverhandPull(LoadingProtocol):
@@ -85,10 +98,8 @@ class OverhandPull(LoadingProtocol):
         start, end, held = one_rope_ends(ctx.geometry, ctx.params["held_end"], ctx.params["pulled_end"])
         axis = unit(x[end.node] - x[start.node])
         v = float(ctx.params["pull_speed"])
-        ctx.data["axis"] = axis
-        ctx.data["e0"] = ctx.length - float(np.linalg.norm(x[-1] - x[0]))
-        ctx.data["start_group"] = "held" if held else "pull_start"
-        ctx.data["separation_speed"] = v if held else 2.0 * v  # m/s, rate at which e shrinks
+        ctx.plan = OverhandPlan(axis, ctx.length - float(np.linalg.norm(x[-1] - x[0])),
+                                "held" if held else "pull_start", v if held else 2.0 * v)
         ramp = float(ctx.params["ramp_time"]) or None
         n = len(x)
         if held:
@@ -100,21 +111,20 @@ class OverhandPull(LoadingProtocol):
                    ramp_time=ramp)
 
     def duration(self, ctx: RunContext) -> float:
-        e0 = ctx.data["e0"]
         ef = float(ctx.params["e_final"])
         # a ramp of the pull speed over T loses T/2 of the travel at full speed
         ramp = 0.5 * float(ctx.params["ramp_time"])
-        return max(e0 - ef, 0.01 * ctx.length) / float(ctx.data["separation_speed"]) + ramp
+        return max(ctx.plan.e0 - ef, 0.01 * ctx.length) / float(ctx.plan.separation_speed) + ramp
 
     def record(self, ctx: RunContext, q, t, reactions) -> dict:
         m = ctx.model
-        axis = ctx.data["axis"]
+        axis = ctx.plan.axis
         x0 = q[m.node_dof[0]:m.node_dof[0] + 3]
         x1 = q[m.node_dof[-1]:m.node_dof[-1] + 3]
         ee = float(np.linalg.norm(x1 - x0))
         e = ctx.length - ee
         f_end = float(np.dot(reactions["pull_end"][:3], axis))
-        f_start = -float(np.dot(reactions[ctx.data["start_group"]][:3], axis))
+        f_start = -float(np.dot(reactions[ctx.plan.start_group][:3], axis))
         R = e / (2.0 * math.pi)
         return {"F": f_end, "F_start": f_start, "F_norm": f_end * ctx.radius**2 / ctx.EI,
                 "end_to_end": ee, "e": e, "R": R,
@@ -131,7 +141,7 @@ class OverhandPull(LoadingProtocol):
         out.update({
             "F_norm_peak": peak,
             "F_norm_peak_time": t_peak,
-            "e_start": float(ctx.data["e0"]),
+            "e_start": float(ctx.plan.e0),
             "e_final": float(log["e"].iloc[-1]),
             "F_norm_final": window_mean(log, "F_norm", float(log["time"].iloc[-1]) - 0.25),  # last 0.25 s
             "F_final": window_mean(log, "F", float(log["time"].iloc[-1]) - 0.25),

@@ -103,7 +103,8 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "hold_tension": ("N", "knot security: force left on the three ends after relaxing (at most set_tension)"),
     "relax_time": ("s", "knot security: time over which the ends go from the set to the hold tension"),
     "load": ("text", "knot security: 'ramp' (force at load_rate until run-away), 'hold' (hold_load for "
-                     "load_time) or 'slide' (the end moves at pull_speed)"),
+                     "load_time), 'slide' (the end moves at pull_speed), 'pulses' (triangular pulses from "
+                     "hold_tension to pulse_load) or 'jerks' (from slack to jerk_load in jerk_rise and back)"),
     "load_rate": ("N/s", "knot security, ramp: growth rate of the load"),
     "hold_load": ("N", "knot security, hold: the load held"),
     "load_time": ("s", "knot security: length of the load stage (0: 20 s, hold 10 s after its rise)"),
@@ -128,7 +129,12 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "pulse_load": ("N", "knot security, pulses: the load at the top of each triangular pulse"),
     "pulse_period": ("s", "knot security, pulses: duration of one pulse (rise and fall)"),
     "n_pulses": ("-", "knot security, pulses: number of pulses"),
-    "spill_distance": ("m", "knot security, pulses: the loaded end this far from its start after a pulse = spilled"),
+    "spill_distance": ("m", "knot security, pulses and jerks: this much rope through the knot after a pulse or jerk "
+                            "= spilled"),
+    "jerk_load": ("N", "knot security, jerks: the load at the top of each jerk (from slack)"),
+    "jerk_rise": ("s", "knot security, jerks: time from slack to the top of a jerk, and back"),
+    "jerk_period": ("s", "knot security, jerks: time from one jerk to the next (slack between)"),
+    "n_jerks": ("-", "knot security, jerks: number of jerks"),
 }
 
 #: Allowed range of numeric protocol parameters, checked by :func:`check_param_ranges` before
@@ -147,6 +153,7 @@ PARAM_RANGES: dict[str, str] = {
     "hold_tension": ">=0", "relax_time": ">0", "load_rate": ">0", "hold_load": ">0", "load_time": ">=0",
     "slip_speed": ">0", "hold_drift": ">0", "pulse_load": ">0", "pulse_period": ">0", "n_pulses": "int>=1",
     "spill_distance": ">0", "set_still_rate": ">0", "set_hold_max": ">0", "set_still_window": ">0",
+    "jerk_load": ">0", "jerk_rise": ">0", "jerk_period": ">0", "n_jerks": "int>=1",
     "stop_margin": ">=0", "detect_after": ">=0",
 }
 _RANGE_TEXT = {">0": "a positive number", ">=0": "a non-negative number", "int>=1": "a positive integer",

@@ -153,8 +153,8 @@ class _Retime:
     becomes that one, the context its stage times and parameters, the decision watch its load start
     and end."""
 
-    def __init__(self, build, sim, ctx: RunContext, watch: _DecisionWatch):
-        self.build, self.sim, self.ctx, self.watch = build, sim, ctx, watch
+    def __init__(self, build, proto: LoadingProtocol, sim, ctx: RunContext, watch: _DecisionWatch):
+        self.build, self.proto, self.sim, self.ctx, self.watch = build, proto, sim, ctx, watch
 
     def __call__(self, t: float, settings: dict[str, Any]) -> None:
         from knotsim.runspec import check_run
@@ -174,10 +174,9 @@ class _Retime:
         self.sim.config.update(raw)
         # the run stops at its new end (its own stop predicate); its run.toml gets the duration it ran
         self.sim.config["run"]["duration"] = old_duration
-        self.watch.plan_end = float(ctx2.data["t_settle"]) + float(ctx2.params["duration"])
-        for key in ("t_set", "t_pre"):
-            if key in ctx2.data:
-                self.ctx.data[key] = ctx2.data[key]
+        self.watch.plan_end = float(ctx2.t_settle) + float(ctx2.params["duration"])
+        self.ctx.t_pre, self.ctx.plan = ctx2.t_pre, ctx2.plan
+        self.proto.prepare(self.ctx)  # (the plan's parts that need the model)
         self.ctx.params = ctx2.params
         self.ctx.bc = ctx2.bc
         self.watch.next_check = pull_start(self.ctx)
@@ -429,7 +428,7 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
     if not (isinstance(duration, int | float) and duration > 0 and math.isfinite(duration)):
         raise ConfigError("duration", f"must be a positive time in s, got {duration!r}")
     p.values["duration"] = float(duration)  # the protocol's time, after any settling
-    duration = ctx.data["t_settle"] + float(duration)  # the run's
+    duration = ctx.t_settle + float(duration)  # the run's
     contact = {"mu": p["mu"], **p.contact}
     # the friction law that runs is written down (run.toml, run.json, summary.json)
     contact.setdefault("friction_model", str(ContactOptions().friction_model))
@@ -517,12 +516,12 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     geo = ctx.geometry
     p = ctx.params
     topo_start = _topology(*proto.closure(ctx, [np.array(x) for x in geo.ropes]))
-    ctx.data["q0"] = sim.state.q.copy()
 
     stop_on, margin = _stop_rule(p)
     watch = _DecisionWatch(proto, ctx, stop_on, margin)
     retime = _Retime(lambda extra: build_protocol_run(name, knot, geometry=geometry, quick=quick,
-                                                      overrides={**(overrides or {}), **extra}), sim, ctx, watch)
+                                                      overrides={**(overrides or {}), **extra}), proto, sim, ctx,
+                     watch)
 
     def callback(s, res):
         reactions = merge_settle_reactions(ctx, res.reactions)
@@ -543,7 +542,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     p = ctx.params  # (a phase may have decided some: the parameters the run ran with)
     if phase is not None:
         notes = [*notes, *phase.notes]
-        ctx.data["adapted"] = phase.record
+        ctx.phase_record = phase.record
         if save_config is not None:
             from knotsim.runspec import RunSpec
 
@@ -552,7 +551,7 @@ def run_protocol(name: str, knot: str | None = None, out_dir=None, overrides: di
     model = cfg.model
     curves = [model.rod_positions(sim.state.q, r) for r in range(model.n_rods)]
     topo_end = _topology(*proto.closure(ctx, curves))
-    ctx.data["topology_end"] = topo_end
+    ctx.topology_end = topo_end
     metrics = proto.metrics(ctx, log) if len(log) else {}
     notes = [*notes, *proto.notes(ctx, metrics)]
     warnings = proto.warnings(ctx, metrics) if len(log) else []

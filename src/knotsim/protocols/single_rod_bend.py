@@ -59,6 +59,7 @@ keeps more rope in it and still carries load.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -102,6 +103,17 @@ def pre_pull_time(params, moving_ends: int = 2) -> float:
     return stage_duration(params["pre_pull"], v, "pre_pull", "pre_pull_speed") / moving_ends
 
 
+@dataclass(frozen=True)
+class SingleRodPlan:
+    """The run of a single-rod bend: ``axis`` (3,) unit vector from the start end to the pulled end,
+    the reaction group of the start end (``start_group``) and the held nodes of the knot
+    (``held_nodes``, local indices)."""
+
+    axis: np.ndarray
+    start_group: str
+    held_nodes: list[int]
+
+
 class SingleRodBend(LoadingProtocol):
     name = "single-rod-bend"
     event_time_keys = ("F_norm_peak_time",)
@@ -142,15 +154,13 @@ class SingleRodBend(LoadingProtocol):
         start, end, held_end = one_rope_ends(ctx.geometry, ctx.params["held_end"], ctx.params["pulled_end"])
         axis = unit(x[end.node] - x[start.node])
         start_nodes, end_nodes = end_group_nodes(start.node, n), end_group_nodes(end.node, n)
-        ctx.data["start_group"] = "held" if held_end else "pull_start"
         twist = ctx.params["end_twist"]
         if twist not in ("clamped", "free"):
             raise ConfigError("end_twist", f"must be 'clamped' or 'free', got {twist!r}")
         twist = twist == "clamped"
-        ctx.data["axis"] = axis
         v = float(ctx.params["pull_speed"])
         t_pre = pre_pull_time(ctx.params, 1 if held_end else 2)
-        ctx.data["t_pre"] = t_pre
+        ctx.t_pre = t_pre
         if held_end:
             ctx.add_bc("clamp", "held", rod=0, nodes=start_nodes, twist=twist)
         if t_pre > 0:
@@ -181,18 +191,18 @@ class SingleRodBend(LoadingProtocol):
         hold_time = math.inf if ht is None else float(ht)
         if held and hold_time > 0:
             ctx.add_bc("hold", "knot_hold", rod=0, nodes=held, stop=None if math.isinf(hold_time) else hold_time)
-        ctx.data["held_nodes"] = held
+        ctx.plan = SingleRodPlan(axis, "held" if held_end else "pull_start", held)
 
     def duration(self, ctx: RunContext) -> float:
-        return ctx.data.get("t_pre", 0.0) + float(ctx.params["mean_window"])
+        return ctx.t_pre + float(ctx.params["mean_window"])
 
     def record(self, ctx: RunContext, q, t, reactions) -> dict:
         m = ctx.model
-        axis = ctx.data["axis"]
+        axis = ctx.plan.axis
         x0 = q[m.node_dof[0]:m.node_dof[0] + 3]
         x1 = q[m.node_dof[-1]:m.node_dof[-1] + 3]
         f_end = float(np.dot(reactions["pull_end"][:3], axis))
-        f_start = -float(np.dot(reactions[ctx.data["start_group"]][:3], axis))
+        f_start = -float(np.dot(reactions[ctx.plan.start_group][:3], axis))
         f = 0.5 * (f_start + f_end)
         x = m.node_positions(q)
         contour = float(np.sum(np.linalg.norm(np.diff(x, axis=0), axis=1)))
@@ -202,7 +212,7 @@ class SingleRodBend(LoadingProtocol):
 
     def metrics(self, ctx: RunContext, log) -> dict:
         w = float(ctx.params["mean_window"])
-        t_pre = float(ctx.data.get("t_pre", 0.0))
+        t_pre = float(ctx.t_pre)
         # metrics on the pull time (after any settle_time and pre-pull), restricted to the measured pull
         log = measured_log(ctx, log)
         if not len(log):
@@ -233,7 +243,7 @@ class SingleRodBend(LoadingProtocol):
         # tightness: rope still in the knot (the rope's current length minus the end-to-end distance,
         # so that stretch does not count) against the ideal tight knot's ropelength
         in_knot = float(log["contour_length"].iloc[-1] - log["end_to_end"].iloc[-1])
-        topo = ctx.data.get("topology_end") or {}
+        topo = ctx.topology_end or {}
         ideal = ideal_ropelength(topo.get("rolfsen"))
         out["rope_in_knot_final"] = in_knot
         out["ideal_rope_in_knot"] = None if ideal is None else ideal * 2.0 * ctx.radius

@@ -9,7 +9,8 @@ nodes are held still until then by a group ``settle_<name>`` (a ``clamp`` with t
 setting, or a ``hold`` for a force); static groups (``clamp``, ``hold``) act from the start and a
 timed release of theirs (``stop``) counts from the end of settling. The run lasts ``T`` plus the
 protocol's ``duration`` (given or computed). The protocol's own pre-stage
-(single-rod ``pre_pull``, two-rope ``pre_tighten``: ``ctx.data["t_pre"]``, s) follows, then the
+(single-rod ``pre_pull``, two-rope ``pre_tighten``, knot-security's set and relax: ``ctx.t_pre``, s)
+follows, then the
 measured pull. Metrics count time from the start of the measured pull (:func:`pull_start`,
 :func:`measured_log`); the log keeps run time. While settling, the reactions of a loading group are
 those of its settle group (:func:`merge_settle_reactions`), so the protocol's force columns are
@@ -33,13 +34,13 @@ LOADING_TYPES = ("move", "force")
 
 def apply_settle(ctx: Any, settle: float) -> None:
     """Shift the loading groups of ``ctx.bc`` (run-file tables) by ``settle`` s and hold their
-    nodes still until then (module docstring); record ``ctx.data["t_settle"]`` and the loading
-    groups' names (``ctx.data["settle_groups"]``). Nothing happens for ``settle = 0``."""
+    nodes still until then (module docstring); record ``ctx.t_settle`` and the loading groups' names
+    (``ctx.settle_groups``). Nothing happens for ``settle = 0``."""
     settle = float(settle)
     if not (settle >= 0 and np.isfinite(settle)):
         raise ConfigError("settle_time", f"must be a duration >= 0 in s, got {settle!r}")
-    ctx.data["t_settle"] = settle
-    ctx.data["settle_groups"] = []
+    ctx.t_settle = settle
+    ctx.settle_groups = []
     if settle == 0:
         return
     tables = []
@@ -52,7 +53,7 @@ def apply_settle(ctx: Any, settle: float) -> None:
                      else {"type": "hold"})
             tables.append({**still, "name": f"settle_{b['name']}", "rod": b.get("rod", 0), "nodes": b["nodes"],
                            "stop": settle})
-            ctx.data["settle_groups"].append(b["name"])
+            ctx.settle_groups.append(b["name"])
         tables.append(b)
     ctx.bc[:] = tables
 
@@ -60,7 +61,7 @@ def apply_settle(ctx: Any, settle: float) -> None:
 def merge_settle_reactions(ctx: Any, reactions: dict) -> dict:
     """``reactions`` (group name -> ``(fx, fy, fz, moment)``, N and N m) with each loading group's
     settle reaction added to its own: the force on those nodes, whichever group holds them."""
-    names = ctx.data.get("settle_groups") or ()
+    names = ctx.settle_groups
     if not names:
         return reactions
     out = dict(reactions)
@@ -73,8 +74,7 @@ def merge_settle_reactions(ctx: Any, reactions: dict) -> dict:
 
 def pull_start(ctx: Any) -> float:
     """Run time (s) at which the measured pull starts: settling plus the protocol's pre-stage."""
-    data = getattr(ctx, "data", {}) or {}
-    return float(data.get("t_settle", 0.0)) + float(data.get("t_pre", 0.0))
+    return float(ctx.t_settle) + float(ctx.t_pre)
 
 
 def measured_log(ctx: Any, log: pd.DataFrame) -> pd.DataFrame:

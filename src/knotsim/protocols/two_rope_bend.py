@@ -75,14 +75,13 @@ pulled-end draw-in; and the slip onset, which decides the outcome ``"slipped"``:
 
 from __future__ import annotations
 
-import math
+from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from knotsim.errors import ConfigError
 from knotsim.protocols.base import LoadingProtocol, RunContext, end_group_nodes, stage_duration, unit
-from knotsim.protocols.geometry import default_ends, parse_end
+from knotsim.protocols.bends import BendEnds, bend_ends, bend_names, bend_topology_key, untied
 from knotsim.protocols.metrics import (
     draw_in_onset,
     moving_average,
@@ -92,204 +91,29 @@ from knotsim.protocols.metrics import (
     window_mean,
     window_peak_at,
 )
+from knotsim.protocols.rope_measures import APART_RADII, free_tail_ends, rope_gap, tail_lengths
 from knotsim.protocols.timeline import measured_log, pull_start
-
-
-def entry_arc_length(x: np.ndarray, dist: np.ndarray, cutoff: float, from_last: bool) -> float:
-    """Arc length (m) from one end of a rope to where it first comes within ``cutoff`` of something
-    else, interpolated along the edge on which that happens.
-
-    ``x`` ``(N, 3)`` node positions (m); ``dist`` ``(N,)`` each node's distance (m) to the nearest
-    point of the other thing (``inf`` where farther than anything that matters); from the first node
-    (``from_last`` False) or the last. With ``i`` the first node (counted from that end) with
-    ``dist[i] <= cutoff`` and ``j`` the node before it, the entry is at the fraction
-    ``(dist[j] − cutoff)/(dist[j] − dist[i])`` of the edge from ``j`` to ``i``: the length changes
-    continuously as the rope slides, not in steps of one edge. The whole length when no node is
-    within ``cutoff``; 0 when the end node is."""
-    if from_last:
-        x = x[::-1]
-        dist = dist[::-1]
-    seg = np.linalg.norm(np.diff(x, axis=0), axis=1)
-    inside = np.flatnonzero(dist <= cutoff)
-    if inside.size == 0:
-        return float(seg.sum())
-    i = int(inside[0])
-    if i == 0:
-        return 0.0
-    d_out, d_in = float(dist[i - 1]), float(dist[i])
-    frac = 1.0 if not np.isfinite(d_out) else (d_out - cutoff) / (d_out - d_in)
-    return float(seg[:i - 1].sum() + frac * seg[i - 1])
-
-
-def tail_lengths(ropes: list[np.ndarray], free_ends: list[tuple[int, int]], radius: float,
-                 delta: float) -> list[float]:
-    """Length (m) of each free tail outside the knot (see the module docstring): the arc length from
-    the tail's end to where it first comes within ``2h + delta + l/2`` of a node of another rope
-    (``l`` the mean edge length), interpolated along the edge (:func:`entry_arc_length`).
-
-    Parameters
-    ----------
-    ropes:
-        ``(N_k, 3)`` node positions of each rope, m.
-    free_ends:
-        ``(rope index, end)`` with end 0 (first node) or 1 (last node).
-    radius, delta:
-        Rod radius ``h`` and contact tolerance, m.
-    """
-    out = []
-    for r, end in free_ends:
-        x = ropes[r]
-        seg = float(np.mean(np.linalg.norm(np.diff(x, axis=0), axis=1)))
-        cutoff = 2.0 * radius + delta + 0.5 * seg
-        others = np.concatenate([y for k, y in enumerate(ropes) if k != r])
-        dist = cKDTree(others).query(x, distance_upper_bound=4.0 * cutoff)[0]
-        out.append(entry_arc_length(x, dist, cutoff, end == 1))
-    return out
-
-
-def self_tail_lengths(x: np.ndarray, radius: float, delta: float) -> list[float]:
-    """Length (m) of each end of one rope outside its own knot, ``[first end, last end]``: from the
-    end to where it first comes within the contact distance of the rope itself (cut-off as in
-    :func:`tail_lengths`, interpolated along the edge as there), not counting the nodes next to it
-    along the rope (within half a turn of that distance, ``π`` x the cut-off of arc length: a bend
-    cannot bring them closer).
-
-    ``x`` ``(N, 3)`` node positions (m); ``radius`` and ``delta`` the rod radius and contact
-    tolerance (m)."""
-    seg = float(np.mean(np.linalg.norm(np.diff(x, axis=0), axis=1)))
-    cutoff = 2.0 * radius + delta + 0.5 * seg
-    skip = int(np.ceil(np.pi * cutoff / seg)) + 1
-    # each node's distance to the nodes of the rope more than `skip` nodes away (inf beyond 4 cut-offs)
-    tree = cKDTree(x)
-    dist = np.full(len(x), np.inf)
-    pairs = tree.query_pairs(4.0 * cutoff, output_type="ndarray")
-    if len(pairs):
-        far = pairs[np.abs(pairs[:, 0] - pairs[:, 1]) > skip]
-        if far.size:
-            d = np.linalg.norm(x[far[:, 0]] - x[far[:, 1]], axis=1)
-            np.minimum.at(dist, far[:, 0], d)
-            np.minimum.at(dist, far[:, 1], d)
-    if not np.any(dist <= cutoff):
-        return [float(np.linalg.norm(np.diff(x, axis=0), axis=1).sum()), 0.0]  # no knot: counted once
-    return [entry_arc_length(x, dist, cutoff, False), entry_arc_length(x, dist, cutoff, True)]
-
-
-#: The ropes are *apart* when no node of one is within this many rod radii of a node of the other
-#: (centreline distance 4h: one rope diameter of clear space between their surfaces).
-APART_RADII = 4.0
-
-
-def turning_in_knot(x: np.ndarray, outside_first: float, outside_last: float) -> float:
-    """Total turning angle (rad) of a rope inside the knot: the sum of the angles between successive
-    edges at the nodes whose arc length lies between ``outside_first`` (m, from the first node) and
-    the total length less ``outside_last`` (m, from the last node), e.g. the lengths of its two ends
-    outside the knot (:func:`tail_lengths`). A straight rope through the knot turns by about 0, a rope
-    that goes round another and back by π or more. ``x`` ``(N, 3)`` node positions (m)."""
-    e = np.diff(np.asarray(x, float), axis=0)
-    lengths = np.linalg.norm(e, axis=1)
-    t = e / lengths[:, None]
-    s = np.cumsum(lengths)[:-1]  # arc length of the interior nodes 1 .. N-2
-    inside = (s >= outside_first) & (s <= float(np.sum(lengths)) - outside_last)
-    angles = np.arccos(np.clip(np.einsum("ij,ij->i", t[1:], t[:-1]), -1.0, 1.0))
-    return float(np.sum(angles[inside]))
-
-
-def rope_gap(ropes: list[np.ndarray]) -> float:
-    """Smallest distance (m) between a node of rope 0 and a node of rope 1 (``(N_k, 3)`` node
-    positions, m): the centreline distance, ``2h`` when the ropes touch."""
-    return float(cKDTree(ropes[1]).query(ropes[0])[0].min())
-
-
-def free_tail_ends(held, pulled) -> list[tuple[int, int]]:
-    """``(rope, end)`` of the two free tails: the other end of the held and of the pulled rope
-    (end 0 = first node, 1 = last node)."""
-    return [(held.rope, 0 if held.node != 0 else 1), (pulled.rope, 0 if pulled.node != 0 else 1)]
-
-
-def ends_interleaved(ropes: list[np.ndarray], standing: list[tuple[int, int]]) -> bool:
-    """Whether the two standing ends and the two tails alternate around the knot (thief and grief
-    bends) rather than lying side by side (reef and granny): the angular order of the four end
-    nodes about the centroid, in the plane of largest spread of all nodes.
-
-    Parameters
-    ----------
-    ropes:
-        The two ropes' ``(N, 3)`` node positions (m).
-    standing:
-        ``(rope, node)`` of the two standing ends.
-    """
-    allp = np.concatenate(ropes)
-    c = allp.mean(axis=0)
-    e = np.linalg.svd(allp - c, full_matrices=False)[2]
-    ends = []
-    for r, x in enumerate(ropes):
-        for node in (0, len(x) - 1):
-            p = x[node] - c
-            ends.append((math.atan2(float(p @ e[1]), float(p @ e[0])), (r, node) in standing))
-    kinds = [k for _, k in sorted(ends)]
-    return all(kinds[i] != kinds[(i + 1) % 4] for i in range(4))
-
-
-def _jones_text(v: dict) -> str:
-    """Jones polynomial ``{exponent: coefficient}`` as text, as the protocols' topology record
-    writes it (``"-1t^1/2 -1t^5/2"``: coefficient and exponent of each term, exponents rising)."""
-    return " ".join(f"{c:+d}t^{e}" for e, c in sorted(v.items()) if c)
-
-
-def split_jones(types: list[str]) -> str | None:
-    """Jones polynomial (as :func:`_jones_text`) of the split link of two knots of the given table
-    types, ``V(K_a) V(K_b) (-t^(1/2) - t^(-1/2))``; ``None`` when a type is not in the table."""
-    from fractions import Fraction
-
-    from knotsim.knots.topology import KNOT_TABLE
-    from knotsim.knots.topology.polynomials import _pmul_jones
-
-    table = {e.knot_type: dict(e.jones) for e in KNOT_TABLE}
-    if any(t not in table for t in types):
-        return None
-    v = {Fraction(1, 2): -1, Fraction(-1, 2): -1}
-    for t in types:
-        v = _pmul_jones(v, table[t])
-    return _jones_text(v)
-
-
-def link_key(topo: dict) -> str:
-    """Topology key of a two-rope bend from its topology record (the two ropes each closed on
-    itself; keys ``component_types``, ``linking_number``, ``jones``): ``"unlink"`` when the ropes
-    have come apart (linking number 0 and the Jones polynomial of the split link of the two ropes'
-    own knots, :func:`split_jones`; the ropes may keep their own knots, e.g. the overhands of a
-    hunter's bend), else ``"A + B; lk n; V = ..."`` (the Jones polynomial left out when it was not
-    computed). Two records with the same key are the same link as far as these invariants tell."""
-    types = [str(t) for t in topo["component_types"]]
-    lk = int(topo.get("linking_number") or 0)
-    jones = topo.get("jones")
-    if lk == 0 and jones is not None and jones == split_jones(types):
-        return "unlink"
-    return f"{' + '.join(types)}; lk {lk}" + (f"; V = {jones}" if jones is not None else "")
-
-
-def bend_names(ctx: RunContext) -> dict:
-    """The starting bend named by its whole-bend closure (:func:`knotsim.knots.topology.analyze_bend`:
-    standing ends joined above, tails below): ``bend_closure`` (its knot type, e.g. ``"reef"``) and
-    ``bend_name`` (from :data:`~knotsim.knots.topology.BEND_TABLE`, ``None`` when not there). Both
-    ``None`` when the check fails. Informational: the outcome does not use this closure."""
-    from knotsim.knots.topology import analyze_bend
-
-    d = getattr(ctx, "data", {})
-    if "held" not in d or getattr(ctx, "geometry", None) is None:
-        return {}
-    try:
-        res = analyze_bend([np.asarray(x, float) for x in ctx.geometry.ropes],
-                           ((d["held"].rope, d["held_end"]), (d["pulled"].rope, d["pulled_end"])))
-    except Exception:  # recorded as missing, never raised: a naming aid only
-        return {"bend_closure": None, "bend_name": None}
-    return {"bend_closure": res.knot_type, "bend_name": res.bend}
 
 
 def pre_tighten_time(params) -> float:
     """Duration (s) of the cinching stage, ``pre_tighten / pre_tighten_speed`` (0 when off; see
     :func:`~knotsim.protocols.base.stage_duration` for the errors)."""
     return stage_duration(params["pre_tighten"], params["pre_tighten_speed"], "pre_tighten", "pre_tighten_speed")
+
+
+@dataclass(frozen=True)
+class TwoRopePlan:
+    """The run of a two-rope bend: its ends (:class:`~knotsim.protocols.bends.BendEnds`), ``axis``
+    (3,) unit vector from the held end to the pulled end, the pulled end's group (``pull_rope``,
+    ``pull_local``: local node indices; ``pull_nodes``: global, once the model exists) and its
+    starting centre ``x_pull0`` (3,) m."""
+
+    ends: BendEnds
+    axis: np.ndarray
+    pull_rope: int
+    pull_local: list[int]
+    x_pull0: np.ndarray
+    pull_nodes: np.ndarray | None = None
 
 
 class TwoRopeBend(LoadingProtocol):
@@ -321,30 +145,17 @@ class TwoRopeBend(LoadingProtocol):
         geo = ctx.geometry
         if len(geo.ropes) != 2:
             raise ConfigError("knot", f"two-rope-bend needs a knot of two ropes, {geo.name!r} has {len(geo.ropes)}")
-        hint_held, hint_pulled = default_ends(geo)
-        he, pe = ctx.params["held_end"], ctx.params["pulled_end"]
-        # a text default (""), not None: a None default is resolved as a number (base.build_protocol_run)
-        held_list = (parse_end(he, geo, "held_end"),) if he else hint_held
-        pulled_list = (parse_end(pe, geo, "pulled_end"),) if pe else hint_pulled
-        if not held_list or not pulled_list:
-            raise ConfigError("knot", f"knot {geo.name!r} has no [loading] held/pulled hints; give held_end and "
-                                      "pulled_end (ROPE:NODE)")
+        ends = bend_ends(geo, ctx.params)
         mode = ctx.params["mode"]
         if mode not in ("displacement", "force"):
             raise ConfigError("mode", f"must be 'displacement' or 'force', got {mode!r}")
-        held, pulled = held_list[0], pulled_list[0]
-        if held.rope == pulled.rope:
-            raise ConfigError("knot", "the held and pulled ends must be on different ropes")
-        xa = geo.ropes[held.rope][held.node]
-        xb = geo.ropes[pulled.rope][pulled.node]
-        axis = unit(xb - xa)
-        ctx.data.update(axis=axis, held=held, pulled=pulled,
-                        held_end=0 if held.node == 0 else 1, pulled_end=0 if pulled.node == 0 else 1)
+        held, pulled = ends.held, ends.pulled
+        axis = unit(geo.ropes[pulled.rope][pulled.node] - geo.ropes[held.rope][held.node])
         # each group sized by its own rope's node count (the ropes may differ in length and resolution)
         pull_nodes = end_group_nodes(pulled.node, len(geo.ropes[pulled.rope]))
         held_nodes = end_group_nodes(held.node, len(geo.ropes[held.rope]))
         t_pre = pre_tighten_time(ctx.params)
-        ctx.data["t_pre"] = t_pre
+        ctx.t_pre = t_pre
         if t_pre > 0:
             # cinch first: all four ends move outwards along their own end tangents, then the tails
             # are released, the held end stays where it got to and the pulled end goes on
@@ -386,20 +197,18 @@ class TwoRopeBend(LoadingProtocol):
                 ctx.add_bc("move", "pre_pull", rod=pulled.rope, nodes=pull_nodes, waypoints=pre(d_pull), stop=t_pre)
             ctx.add_bc("force", "pull", rod=pulled.rope, nodes=pull_nodes, start=t_pre,
                        ramp={"from": [0.0, 0.0, 0.0], "rate": list(rate * axis)})
-        ctx.data["pull_local"] = (pulled.rope, pull_nodes)
-        ctx.data["x_pull0"] = np.mean([geo.ropes[pulled.rope][i] for i in pull_nodes], axis=0)
-        ctx.data["free_ends"] = free_tail_ends(held, pulled)
-        ctx.data["ends_interleaved"] = ends_interleaved(geo.ropes, [(held.rope, held.node), (pulled.rope, pulled.node)])
+        ctx.plan = TwoRopePlan(ends, axis, pulled.rope, list(pull_nodes),
+                               np.mean([geo.ropes[pulled.rope][i] for i in pull_nodes], axis=0))
 
     def prepare(self, ctx: RunContext) -> None:
-        rope, nodes = ctx.data["pull_local"]
-        ctx.data["pull_nodes"] = ctx.model.global_nodes(rope, nodes)
+        plan = ctx.plan
+        ctx.plan = replace(plan, pull_nodes=ctx.model.global_nodes(plan.pull_rope, plan.pull_local))
 
     def duration(self, ctx: RunContext) -> float:
         """Default run length (s): ``pull_length / pull_speed`` in displacement control (400 mm of
         pull: the loose library bends are flattened and the reef and granny slip after about
         300 mm, see ``validation/reports/knots_bends.md``), 40 s in force control."""
-        t_pre = ctx.data.get("t_pre", 0.0)
+        t_pre = ctx.t_pre
         if ctx.params["mode"] == "displacement":
             ramp = 0.5 * float(ctx.params["ramp_time"]) if t_pre == 0 else 0.0  # a ramp over T loses T/2 at full speed
             return t_pre + float(ctx.params["pull_length"]) / float(ctx.params["pull_speed"]) + ramp
@@ -416,9 +225,10 @@ class TwoRopeBend(LoadingProtocol):
 
     def record(self, ctx: RunContext, q, t, reactions) -> dict:
         m = ctx.model
-        axis = ctx.data["axis"]
+        plan = ctx.plan
+        axis = plan.axis
         x = m.node_positions(q)
-        u = float(np.dot(x[ctx.data["pull_nodes"]].mean(axis=0) - ctx.data["x_pull0"], axis))
+        u = float(np.dot(x[plan.pull_nodes].mean(axis=0) - plan.x_pull0, axis))
         if ctx.params["mode"] == "displacement":
             f = float(np.dot(reactions["pull"][:3], axis))
         else:
@@ -426,12 +236,12 @@ class TwoRopeBend(LoadingProtocol):
         f_held = -float(np.dot(reactions["held"][:3], axis))
         ropes = [x[m.rod_node_start[r]:m.rod_node_start[r + 1]] for r in range(m.n_rods)]
         delta = float(ctx.params.contact.get("delta", 5e-4))
-        ta, tb = tail_lengths(ropes, ctx.data["free_ends"], ctx.radius, delta)
+        ta, tb = tail_lengths(ropes, plan.ends.free_ends, ctx.radius, delta)
         return {"F": f, "F_norm": f * ctx.radius**2 / ctx.EI, "F_held": f_held, "u_pull": u,
                 "tail_a": ta, "tail_b": tb, "rope_gap": rope_gap(ropes)}
 
     def metrics(self, ctx: RunContext, log) -> dict:
-        t_pre = float(getattr(ctx, "data", {}).get("t_pre", 0.0))
+        t_pre = float(ctx.t_pre)
         if pull_start(ctx) > 0:  # metrics on the pull after settling and cinching, time from its start
             log = measured_log(ctx, log)
             if len(log) < 2:
@@ -452,7 +262,7 @@ class TwoRopeBend(LoadingProtocol):
             "tail_b_draw_in": tail_draw_in(log, "tail_b"),
             "pull_draw_in": tail_draw_in(log, "u_pull", kind="increase"),
         }
-        out.update(bend_names(ctx))
+        out.update(bend_names(ctx.geometry, ctx.plan.ends if ctx.plan is not None else None))
         if "rope_gap" in log.columns:
             gap = float(log["rope_gap"].iloc[-1])
             out["rope_gap_final"] = gap
@@ -482,31 +292,20 @@ class TwoRopeBend(LoadingProtocol):
         return out
 
     def topology_key(self, ctx: RunContext, topo: dict) -> str | None:
-        """What must stay equal for the bend to count as unchanged: :func:`link_key` of the two
-        ropes each closed on itself (``"unlink"`` once they have come apart: the outcome is then
-        ``untied``). A one-component record (a bend closure, as written by earlier versions) keeps
-        the old rule: its knot type, without handedness when the standing ends and tails alternate
-        around the knot (thief, grief), whose closure must cross one join over the other."""
-        if topo.get("n_components") == 2 and topo.get("component_types") is not None:
-            return link_key(topo)
-        key = topo.get("signature")
-        if key is None or not ctx.data.get("ends_interleaved") or topo.get("knot_type") in ("unknot", "unlink"):
-            return key
-        return topo.get("rolfsen") or key
+        """What must stay equal for the bend to count as unchanged
+        (:func:`~knotsim.protocols.bends.bend_topology_key`)."""
+        return bend_topology_key(topo, bool(ctx.plan is not None and ctx.plan.ends.interleaved))
 
     def slipped(self, ctx: RunContext, metrics: dict) -> bool:
         return metrics.get("slip_onset") is not None
 
     def verdict(self, ctx: RunContext, metrics: dict) -> str | None:
         """``untied`` when the two ropes are apart at the end (no nodes within ``4h``,
-        :data:`APART_RADII`) and their link is split (:func:`link_key`; the reef and thief bends'
-        ropes are an unlink from the start, so only the geometry shows them coming apart), else
-        ``slipped``, else ``undecided`` when the pull after the transient is shorter than the
-        evidence the slip rule needs (``slip_hold`` plus its 2 s smoothing in displacement control,
-        0.5 s in force control), else held."""
-        end = getattr(ctx, "data", {}).get("topology_end") or {}
-        if (metrics.get("ropes_apart") and end.get("n_components") == 2 and end.get("component_types") is not None
-                and link_key(end) == "unlink"):
+        :data:`~knotsim.protocols.rope_measures.APART_RADII`) and their link is split
+        (:func:`~knotsim.protocols.bends.untied`), else ``slipped``, else ``undecided`` when the pull
+        after the transient is shorter than the evidence the slip rule needs (``slip_hold`` plus its
+        2 s smoothing in displacement control, 0.5 s in force control), else held."""
+        if untied(metrics, ctx.topology_end):
             return "untied"
         return self.slip_verdict(ctx, metrics)
 
