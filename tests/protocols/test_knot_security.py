@@ -496,3 +496,49 @@ def test_tail_length_follows_a_rope_sliding_through_continuously():
     assert np.abs(lengths - (entry - shifts)).max() <= 0.1 * seg
     # no steps: between shifts a tenth of an edge apart it changes by the shift within half of it
     assert np.abs(np.diff(lengths) + np.diff(shifts)).max() <= 0.5 * np.diff(shifts).max()
+
+
+def test_jerks_go_from_slack_to_the_peak_and_back():
+    """load = "jerks": each jerk rises from slack (0 N) to jerk_load in jerk_rise s and falls back as
+    fast, one every jerk_period s, slack between; cycles to spill by the one slip rule."""
+    from knotsim.protocols.security_params import SecurityParams, load_profile
+
+    ctx, _ = _spec(load="jerks", jerk_load=0.006, jerk_rise=0.04, jerk_period=0.5, n_jerks=3,
+                   set_ramp=0.4, set_hold=0.6, relax_time=0.2, load_time=0.0)
+    bcs = {b["name"]: b for b in ctx.bc}
+    for i in range(3):
+        up, down = bcs[f"load_up_{i}"], bcs[f"load_down_{i}"]
+        assert up["start"] == pytest.approx(1.2 + 0.5 * i) and up["stop"] == pytest.approx(1.24 + 0.5 * i)
+        assert down["start"] == pytest.approx(1.24 + 0.5 * i) and down["stop"] == pytest.approx(1.28 + 0.5 * i)
+        assert np.linalg.norm(up["ramp"]["from"]) == 0.0 and np.linalg.norm(up["ramp"]["to"]) == pytest.approx(0.006)
+        assert np.linalg.norm(down["ramp"]["to"]) == 0.0
+    assert "load" not in bcs  # slack after the last jerk
+    assert KnotSecurity().duration(ctx) == pytest.approx(1.2 + 1.5 + 2.0)
+    sp = SecurityParams.from_params(ctx.params)
+    assert [load_profile(sp, t) for t in (0.0, 0.02, 0.04, 0.06, 0.08, 0.3, 0.54, 1.6)] == pytest.approx(
+        [0.0, 0.003, 0.006, 0.003, 0.0, 0.0, 0.006, 0.0])
+    with pytest.raises(ConfigError, match="^jerk_rise:"):
+        _spec(load="jerks", jerk_rise=0.3, jerk_period=0.5)
+    # spill: rope through the knot after the second jerk (the loaded end out and the tails in by 12 mm)
+    t = np.arange(0.0, 5.0, 0.01)
+    u = np.where(t > 0.7, 0.012, 0.0)
+    log = pd.DataFrame({"time": t + 1.5, "F": np.zeros(t.size), "F_norm": np.zeros(t.size), "u_pull": u,
+                        "tail_a": 0.3 - u / 2, "tail_b": 0.3 - u / 2, "rope_gap": np.full(t.size, 4e-3),
+                        "in_knot": np.full(t.size, 0.2)})
+    m = KnotSecurity().metrics(_Ctx(load="jerks", jerk_period=0.5, n_jerks=3), log)
+    assert m["cycles_to_spill"] == 2 and m["slip_onset"]["criterion"] == "spill"
+    d = KnotSecurity().decision(_Ctx(load="jerks", jerk_period=0.5, n_jerks=3), log)
+    assert d.outcome == "spilled" and d.time == pytest.approx(1.5 + 1.0)
+
+
+def test_a_short_jerk_run():
+    """The reef bend under two jerks (quick): the applied force peaks at jerk_load and is slack
+    between; the metrics count the jerks done."""
+    res = ks.run_protocol("knot-security", "reef_bend", quick=True,
+                          overrides={"set_ramp": 0.2, "set_hold": 0.2, "relax_time": 0.1, "set_until_still": False,
+                                     "load": "jerks", "jerk_load": 0.004, "jerk_rise": 0.03, "jerk_period": 0.4,
+                                     "n_jerks": 2, "load_time": 1.0})
+    log, m = res.log, res["metrics"]
+    f = log["F"].to_numpy()
+    assert np.nanmax(f) == pytest.approx(0.004, rel=0.2) and np.nanmin(f) == 0.0
+    assert m["pulses_done"] == 2 and len(m["pulse_drift"]) == 2
