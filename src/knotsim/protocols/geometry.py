@@ -197,12 +197,13 @@ def _run_file(run_dir: Path) -> dict:
 
 
 #: material keys a run's rope keeps when a protocol continues it
-MATERIAL_KEYS = ("youngs_modulus", "density", "poisson_ratio")
+MATERIAL_KEYS = ("youngs_modulus", "density", "poisson_ratio", "bending_stiffness", "torsional_stiffness")
 
 
 def run_material(run_dir: str | Path) -> dict:
-    """The first rod's material (``youngs_modulus`` Pa, ``density`` kg/m^3, ``poisson_ratio``) in
-    a run directory's ``run.toml``, or ``{}``: continuing a run keeps its rope."""
+    """The first rod's material (``youngs_modulus`` Pa, ``density`` kg/m^3, ``poisson_ratio``, and
+    ``bending_stiffness`` / ``torsional_stiffness`` N m^2 when it set them) in a run directory's
+    ``run.toml``, or ``{}``: continuing a run keeps its rope."""
     rods = _run_file(Path(run_dir)).get("rods") or [{}]
     return {k: rods[0][k] for k in MATERIAL_KEYS if isinstance(rods[0], dict) and k in rods[0]}
 

@@ -139,6 +139,8 @@ class KnotSecurity(LoadingProtocol):
         "transient": 1.0,      # s: the hold's rise to hold_load; the hold's drift is measured after it
         "detect_after": 0.0,   # s into the load before the ramp's slip detection starts (0: from the start)
         "slip_rule": "through",  # "through": rope through the knot; "loaded_end": the loaded end alone
+        "load_end": "standing",  # "standing": rope B's standing end loaded; "tail": rope A's tail, against
+                                 # its own clamped standing end (how a reef bend capsizes; bends only)
         "stop_at_decision": True,  # end the run stop_margin s after its outcome is decided
         "stop_margin": 1.0,    # s the run goes on after the decision (stop_at_decision)
         "output_interval": 0.1,
@@ -181,6 +183,11 @@ class KnotSecurity(LoadingProtocol):
         for name, (rope, end) in zip(("tail_a", "tail_b"), ends.free_ends, strict=True):
             self._set_and_relax(ctx, sp, t_set, name, rope, 0 if end == 0 else len(geo.ropes[rope]) - 1)
         all_ends = [(held.rope, ends.held_end), (pulled.rope, ends.pulled_end), *ends.free_ends]
+        if sp.load_end == "tail":  # rope A's tail pulled away from its own standing end; rope B free
+            rope, end = ends.free_ends[0]
+            node = 0 if end == 0 else len(geo.ropes[rope]) - 1
+            return ends, None, all_ends, [("load", rope, end_group_nodes(node, len(geo.ropes[rope])),
+                                           _outward(geo, rope, node))]
         return ends, None, all_ends, [("load", pulled.rope, end_group_nodes(pulled.node, len(geo.ropes[pulled.rope])),
                                        axis)]
 
@@ -189,6 +196,8 @@ class KnotSecurity(LoadingProtocol):
         that stops the first overhand inverting); both ends set, then both loaded apart along the axis
         between them."""
         geo, p = ctx.geometry, ctx.params
+        if sp.load_end != "standing":
+            raise ConfigError("load_end", "a one-rope knot is loaded at both ends; load_end = 'tail' is for bends")
         if p["held_end"] or p["pulled_end"]:
             raise ConfigError("held_end" if p["held_end"] else "pulled_end",
                               "a one-rope knot is loaded at both ends, anchored at its held hint; held_end and "

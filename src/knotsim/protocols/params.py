@@ -121,6 +121,9 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "slip_rule": ("text", "knot security: 'through' (a slow slip, a spill: rope passing through the knot, the loaded "
                           "end out and the tails in, the lesser of the two) or 'loaded_end' (the loaded end alone, "
                           "the rule of the studies before it)"),
+    "load_end": ("text", "knot security, bends: 'standing' (rope B's standing end loaded, the other clamped) or "
+                         "'tail' (rope A's tail pulled against its own clamped standing end, rope B free: how a "
+                         "reef bend capsizes)"),
     "stop_at_decision": ("true/false", "knot security: end the run stop_margin s after its outcome is decided (the "
                                        "loaded end ran away, the ropes came apart, capsized, spilled)"),
     "stop_margin": ("s", "knot security: simulated time the run goes on after its decision (stop_at_decision)"),

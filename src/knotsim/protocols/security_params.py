@@ -10,10 +10,11 @@ from typing import Any
 from knotsim.errors import ConfigError
 from knotsim.protocols.params import check_param_ranges
 
-__all__ = ["LOAD_MODES", "SLIP_RULES", "SecurityParams", "load_profile"]
+__all__ = ["LOAD_ENDS", "LOAD_MODES", "SLIP_RULES", "SecurityParams", "load_profile"]
 
 LOAD_MODES = ("ramp", "hold", "slide", "pulses", "jerks")
 SLIP_RULES = ("through", "loaded_end")
+LOAD_ENDS = ("standing", "tail")
 
 
 @dataclass(frozen=True)
@@ -51,6 +52,7 @@ class SecurityParams:
     transient: float
     detect_after: float
     slip_rule: str
+    load_end: str
 
     @classmethod
     def from_params(cls, p) -> SecurityParams:
@@ -62,6 +64,8 @@ class SecurityParams:
             raise ConfigError("load", f"must be one of {', '.join(LOAD_MODES)}, got {values['load']!r}")
         if values["slip_rule"] not in SLIP_RULES:
             raise ConfigError("slip_rule", f"must be one of {', '.join(SLIP_RULES)}, got {values['slip_rule']!r}")
+        if values["load_end"] not in LOAD_ENDS:
+            raise ConfigError("load_end", f"must be one of {', '.join(LOAD_ENDS)}, got {values['load_end']!r}")
         if not isinstance(values["set_until_still"], bool):
             raise ConfigError("set_until_still", f"must be true or false, got {values['set_until_still']!r}")
         for key in ("n_pulses", "n_jerks"):
