@@ -147,6 +147,8 @@ class Simulation:
         attempts = 0
         d = self.state.memory.driver  # (shared by the trial states: the policy's memory)
         while True:
+            if d.dt > self.options.dt and self._stage_change_within(self.state.time, self.state.time + d.dt):
+                d.dt, d.easy = self.options.dt, 0  # a stage begins or ends: back to the target step
             h = min(d.dt, t_end - self.state.time)
             if abs(h - d.dt) <= 1e-9 * d.dt:
                 h = d.dt  # the last step ends within round-off of t_end: take the full step
@@ -182,7 +184,7 @@ class Simulation:
             except ValidityError as exc:
                 exc.last_good_state, exc.time = self.state.copy(), self.state.time
                 raise
-            self.state = trial
+            before, self.state = self.state, trial
             d.steps += 1
             if not shortened:
                 self._before_short_step = None
@@ -192,11 +194,38 @@ class Simulation:
                 d.easy += 1
             else:
                 d.easy = 0
-            if d.easy >= self.options.grow_after and d.dt < self.options.dt:
-                d.dt = min(2.0 * d.dt, self.options.dt)
-                d.easy = 0
+            self._next_step_size(d, h, before, trial)
             self.rows.append(self._row(res))
             return res
+
+    def _stage_change_within(self, t0: float, t1: float) -> bool:
+        """Whether a boundary-condition group starts or stops in ``(t0, t1]`` (s)."""
+        if self.bcs is None:
+            return False
+        return any(t0 < g.start <= t1 or t0 < g.stop <= t1 for g in self.bcs.groups.values())
+
+    def _next_step_size(self, d, h: float, before: State, accepted: State) -> None:
+        """The step policy after an accepted step of ``h`` s (``d``: its memory): back towards the target
+        ``dt`` after ``grow_after`` easy steps; beyond it, up to ``dt_max``, while the local error
+        estimate ``h/2 max |Δv|`` stays within ``error_tol`` (and back towards ``dt`` when it exceeds
+        4 ``error_tol`` or a step is not easy); see :class:`~knotsim.solver.options.SolverOptions`."""
+        opt = self.options
+        dt_max = opt.dt_max if opt.dt_max is not None else opt.dt
+        if dt_max > opt.dt:
+            dv = self.model.node_positions(accepted.v) - self.model.node_positions(before.v)
+            err = 0.5 * h * float(np.sqrt(np.max(np.einsum("ij,ij->i", dv, dv)))) if dv.size else 0.0
+            if d.dt > opt.dt and (err > 4.0 * opt.error_tol or d.easy == 0):
+                d.dt = max(opt.dt, 0.5 * d.dt)
+                d.easy = 0
+                return
+        else:
+            err = math.inf
+        if d.easy >= opt.grow_after and d.dt < opt.dt:
+            d.dt = min(2.0 * d.dt, opt.dt)
+            d.easy = 0
+        elif d.easy >= opt.grow_after and d.dt < dt_max and err <= opt.error_tol:
+            d.dt = min(2.0 * d.dt, dt_max)
+            d.easy = 0
 
     def _row(self, res: StepResult) -> dict:
         row = {"time": res.time, "dt": res.dt, "iterations": res.iterations, "residual": res.residual,

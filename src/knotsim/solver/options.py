@@ -41,6 +41,13 @@ class SolverOptions:
     - ``step_tol`` (m): Newton step tolerance, default ``1e-6 l``; ``angle_tol`` (rad) likewise 1e-6;
     - ``grow_after``: consecutive easy steps (at most ``easy_iterations`` iterations) before the step
       doubles back towards ``dt``;
+    - ``dt_max`` (s, default ``dt``: no growth beyond it): while the solution is smooth the step may
+      double beyond ``dt`` up to ``dt_max``: after ``grow_after`` easy steps whose local error
+      estimate of backward Euler, ``h/2 max |v_{n+1} - v_n|`` over the nodes (m), is at most
+      ``error_tol``; it halves back towards ``dt`` as soon as the estimate exceeds 4 ``error_tol``, a
+      step needs more than ``easy_iterations`` iterations, or a boundary condition starts or stops
+      within the step (a protocol's stage change: that step is taken at ``dt`` at most);
+    - ``error_tol`` (m, default ``1e-6``): the local error per step that steps beyond ``dt`` keep;
     - ``linear_solver``: ``"auto"`` (banded when possible), ``"banded"``, ``"sparse"``;
     - ``predictor``: initial Newton guess, ``"acceleration"`` (``q_n + dt v*`` with the velocity
       extrapolated at constant acceleration, ``v* = v_n + (v_n - v_{n-1}) dt/dt_{n-1}``; 0.8 fewer
@@ -80,6 +87,8 @@ class SolverOptions:
     angle_tol: float = 1e-6
     line_search: bool = True
     grow_after: int = 5
+    dt_max: float | None = None
+    error_tol: float = 1e-6
     easy_iterations: int = 4
     linear_solver: LinearSolver | str = LinearSolver.AUTO
     predictor: Predictor | str = Predictor.ACCELERATION
@@ -95,6 +104,9 @@ class SolverOptions:
         number(self.dt, "solver.dt", above=0.0, must="be a positive time step in s")
         if self.dt_min is not None:
             number(self.dt_min, "solver.dt_min", above=0.0, at_most=self.dt, must=f"lie in (0, dt={self.dt}]")
+        if self.dt_max is not None:
+            number(self.dt_max, "solver.dt_max", at_least=self.dt, must=f"be a time step of at least dt = {self.dt} s")
+        number(self.error_tol, "solver.error_tol", above=0.0, must="be a positive length in m")
         number(self.max_iterations, "solver.max_iterations", integer=True, at_least=1)
         for name in ("force_tol", "moment_tol", "step_tol", "angle_tol"):
             v = getattr(self, name)
