@@ -8,7 +8,7 @@ security study that way and reports what ``knot-security``'s capsize rule
 ``docs/studies/security_critical`` (N = 201, dt = 2.5 ms, 10 mN on three ends for 3 s, relaxed to
 1 mN, μ = 0.3), then rope A's standing end stays clamped and its *tail* (instead of rope B's standing
 end) is pulled by a force growing at 2 mN/s for 10 s; rope B's ends are free. The run goes through
-the protocol's own set-up, log columns and metrics; only the loaded end is moved.
+the protocol through the public API (``ks.run_protocol``); the pictures are trajectory frames.
 
 Run: ``python validation/capsize_tail_pull.py [KNOT ...]`` (default: reef, granny, thief and grief
 bends). Writes ``validation/reports/capsize_tail_pull.md`` (a table: the capsize onset, the outcome,
@@ -32,7 +32,7 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 OVERRIDES = {"mu": 0.3, "n_nodes": 201, "dt": 2.5e-3, "set_tension": 0.01, "set_ramp": 1.0, "set_hold": 3.0,
              "hold_tension": 0.001, "relax_time": 0.5, "load": "ramp", "load_rate": 0.002, "load_time": 10.0,
-             "output_interval": 0.25,
+             "output_interval": 0.1,  # (frames for the picture; output only)
              # the protocol's defaults when this report was recorded (they changed since: CHANGELOG)
              "set_until_still": False, "stop_at_decision": False, "slip_rule": "loaded_end", "detect_after": 1.0}
 KNOTS = ["reef_bend", "granny_bend", "thief_bend", "grief_bend"]
@@ -71,55 +71,29 @@ def picture(rows: list[dict], path: Path) -> None:
 
 
 def tail_pull(knot: str) -> dict:
-    """One bend set, then its rope A's tail pulled against its clamped standing end."""
-    from knotsim.protocols.base import end_group_nodes, unit
-    from knotsim.protocols.metrics import knot_status
-    from knotsim.protocols.pipeline import _topology, build_protocol_run, topology_keys
-    from knotsim.runspec import RunSpec, build_run, check_run, run_simulation
+    """One bend set, then its rope A's tail pulled against its clamped standing end
+    (``knot-security`` with ``load_end = "tail"``)."""
+    import tempfile
+
+    import knotsim as ks
 
     wall0 = time.perf_counter()
-    proto, ctx, spec, _ = build_protocol_run("knot-security", knot, overrides=OVERRIDES)
-    data = spec.data
-    held = ctx.data["held"]
-    rope_a = np.asarray(ctx.geometry.ropes[held.rope], float)
-    n = len(rope_a)
-    tail = n - 1 if held.node == 0 else 0
-    inner = min(5, n - 1)
-    direction = unit(rope_a[tail] - rope_a[tail - inner if tail else inner])
-    nodes = end_group_nodes(tail, n)
-    load = next(b for b in data["bc"] if b["name"] == "load")
-    start, rate = float(np.linalg.norm(load["ramp"]["from"])), float(np.linalg.norm(load["ramp"]["rate"]))
-    load.update(rod=held.rope, nodes=list(nodes), ramp={"from": list(start * direction), "rate": list(rate * direction)})
-    # rope A's tail was a set end: its set and relax groups end before the load begins, as before
-    ctx.data["loaded_local"] = [(held.rope, list(nodes), direction)]
-    sim, cfg = build_run(check_run(RunSpec.from_dict(data)))
-    ctx.model = cfg.model
-    proto.prepare(ctx)
-    geo = ctx.geometry
-    topo_start = _topology(*proto.closure(ctx, [np.array(x) for x in geo.ropes]))
-
-    t_pre = float(ctx.data["t_pre"])
-    snapshots = {}
-
-    def record(s, res):
-        s.rows[-1].update(proto.record(ctx, s.state.q, s.state.time, res.reactions))
-        for t in SNAPSHOTS:  # the ropes' shapes for the picture
-            if t not in snapshots and s.state.time >= t_pre + t - 1e-9:
-                snapshots[t] = cfg.model.node_positions(s.state.q).copy()
-
-    ran = run_simulation(sim, cfg.duration, None, callback=record)
-    log = ran.log
-    curves = [cfg.model.rod_positions(sim.state.q, r) for r in range(cfg.model.n_rods)]
-    topo_end = _topology(*proto.closure(ctx, curves))
-    ctx.data["topology_end"] = topo_end
-    metrics = proto.metrics(ctx, log)
-    outcome = knot_status(*topology_keys(proto, ctx, topo_start, topo_end), verdict=proto.verdict(ctx, metrics))
-    return {"knot": knot, "outcome": outcome, "run_status": ran.status, "capsize_onset": metrics["capsize_onset"],
+    with tempfile.TemporaryDirectory() as tmp:
+        res = ks.run_protocol("knot-security", knot, out_dir=tmp, overrides={**OVERRIDES, "load_end": "tail"})
+        t_load = next(st["start"] for st in res["timeline"]["stages"] if st["name"] == "load")
+        traj = ks.read_trajectory(Path(tmp) / "trajectory.h5")
+        snapshots = {t: np.asarray(traj.positions[traj.frame_at_time(t_load + t)], float).copy()
+                     for t in SNAPSHOTS if t_load + t <= traj.time[-1] + 1e-9}
+    metrics, log = res["metrics"], res.log
+    capsize = metrics["capsize_onset"]
+    if capsize is not None:  # s into the load, as this report gives it
+        capsize = {**capsize, "time": capsize["load_stage_time"]}
+    return {"knot": knot, "outcome": res["knot_status"], "run_status": res["run_status"], "capsize_onset": capsize,
             "slip_onset": metrics.get("slip_onset"), "turn_load": metrics["turn_load"],
             "turn_end": [float(log["turn_a"].iloc[-1]), float(log["turn_b"].iloc[-1])],
             "rope_gap_final": metrics.get("rope_gap_final"), "set_creep": metrics.get("set_creep"),
             "wall_time_s": time.perf_counter() - wall0, "snapshots": snapshots,
-            "split": int(cfg.model.rod_node_start[1])}
+            "split": len(ks.get_knot(knot, n_nodes=OVERRIDES["n_nodes"]).ropes[0])}
 
 
 def main() -> None:
