@@ -149,7 +149,7 @@ def test_protocol_reads_the_chosen_matrices_and_says_what_it_found(tmp_path):
     _, ctx2, _, _ = build_protocol_run("two-rope-bend", geometry=str(f),
                                        overrides={"radius": 2e-3, "geometry_matrices": ["B", "A"],
                                                   "held_end": "A:-1", "pulled_end": "B:0"})
-    assert ctx2.geometry.rope_names == ["B", "A"] and ctx2.data["held"].rope == 1
+    assert ctx2.geometry.rope_names == ["B", "A"] and ctx2.plan.ends.held.rope == 1
     with pytest.raises(ConfigError, match="geometry_matrices.*library knot"):
         build_protocol_run("two-rope-bend", "reef_bend", overrides={"geometry_matrices": "A,B"})
 
