@@ -51,6 +51,7 @@ from knotsim.protocols.base import Decision, LoadingProtocol, RunContext, end_gr
 from knotsim.protocols.bends import BendEnds, bend_ends, bend_names, bend_topology_key, untied
 from knotsim.protocols.rope_measures import (
     APART_RADII,
+    end_direction,
     rope_gap,
     self_tail_lengths,
     tail_lengths,
@@ -90,9 +91,7 @@ def _params(ctx: RunContext) -> SecurityParams:
 
 
 def _outward(geo, rope: int, node: int) -> np.ndarray:
-    x = geo.ropes[rope]
-    inner = min(5, len(x) - 1)
-    return unit(x[node] - x[inner if node == 0 else len(x) - 1 - inner])
+    return end_direction(geo.ropes[rope], node)
 
 
 class KnotSecurity(LoadingProtocol):

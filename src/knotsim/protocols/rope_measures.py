@@ -18,7 +18,7 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["APART_RADII", "ends_interleaved", "entry_arc_length", "free_tail_ends", "rope_gap", "self_tail_lengths",
+__all__ = ["APART_RADII", "end_direction", "ends_interleaved", "entry_arc_length", "free_tail_ends", "rope_gap", "self_tail_lengths",
            "tail_lengths", "turning_in_knot"]
 
 
@@ -125,6 +125,15 @@ def rope_gap(ropes: list[np.ndarray]) -> float:
     """Smallest distance (m) between a node of rope 0 and a node of rope 1 (``(N_k, 3)`` node
     positions, m): the centreline distance, ``2h`` when the ropes touch."""
     return float(cKDTree(ropes[1]).query(ropes[0])[0].min())
+
+
+def end_direction(x: np.ndarray, node: int) -> np.ndarray:
+    """The outward direction (3,) unit vector of a rope's end ``node`` (0 or the last) from the node
+    five in from it: where a force or a move that pulls that end points. ``x`` ``(N, 3)`` m."""
+    x = np.asarray(x, float)
+    inner = min(5, len(x) - 1)
+    d = x[node] - x[inner if node == 0 else len(x) - 1 - inner]
+    return d / np.linalg.norm(d)
 
 
 def free_tail_ends(held, pulled) -> list[tuple[int, int]]:

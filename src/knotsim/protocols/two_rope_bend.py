@@ -91,7 +91,7 @@ from knotsim.protocols.metrics import (
     window_mean,
     window_peak_at,
 )
-from knotsim.protocols.rope_measures import APART_RADII, free_tail_ends, rope_gap, tail_lengths
+from knotsim.protocols.rope_measures import APART_RADII, end_direction, rope_gap, tail_lengths
 from knotsim.protocols.timeline import measured_log, pull_start
 
 
@@ -154,51 +154,50 @@ class TwoRopeBend(LoadingProtocol):
         # each group sized by its own rope's node count (the ropes may differ in length and resolution)
         pull_nodes = end_group_nodes(pulled.node, len(geo.ropes[pulled.rope]))
         held_nodes = end_group_nodes(held.node, len(geo.ropes[held.rope]))
-        t_pre = pre_tighten_time(ctx.params)
-        ctx.t_pre = t_pre
+        ctx.t_pre = t_pre = pre_tighten_time(ctx.params)
         if t_pre > 0:
-            # cinch first: all four ends move outwards along their own end tangents, then the tails
-            # are released, the held end stays where it got to and the pulled end goes on
-            v_pre = float(ctx.params["pre_tighten_speed"])
-
-            def outward(rope: int, node: int):
-                x = geo.ropes[rope]
-                inner = min(5, len(x) - 1)
-                return unit(x[node] - x[inner if node == 0 else len(x) - 1 - inner])
-
-            def pre(d, then=None):
-                """Waypoints: out along ``d`` at v_pre for t_pre, then at ``then`` (m/s) or still."""
-                w = {"times": [0.0, t_pre], "points": [[0.0, 0.0, 0.0], list(v_pre * t_pre * d)]}
-                if then is not None:
-                    w["then_velocity"] = list(then)
-                return w
-
-            d_held = outward(held.rope, held.node)
-            d_pull = outward(pulled.rope, pulled.node)
-            ctx.add_bc("move", "held", rod=held.rope, nodes=held_nodes, waypoints=pre(d_held))
-            for name, (rope, end) in zip(("tail_a", "tail_b"), free_tail_ends(held, pulled), strict=True):
-                n = len(geo.ropes[rope])
-                node = 0 if end == 0 else n - 1
-                ctx.add_bc("move", f"pre_{name}", rod=rope, nodes=end_group_nodes(node, n),
-                           waypoints=pre(outward(rope, node)), stop=t_pre)
+            self._cinch(ctx, ends, held_nodes)
         else:
             ctx.add_bc("clamp", "held", rod=held.rope, nodes=held_nodes)
-            d_pull = axis
+        d_pull = end_direction(geo.ropes[pulled.rope], pulled.node) if t_pre > 0 else axis
         if mode == "displacement":
             v = float(ctx.params["pull_speed"])
             if t_pre > 0:
-                ctx.add_bc("move", "pull", rod=pulled.rope, nodes=pull_nodes, waypoints=pre(d_pull, v * axis))
+                ctx.add_bc("move", "pull", rod=pulled.rope, nodes=pull_nodes,
+                           waypoints=self._out(ctx, d_pull, v * axis))
             else:
                 ctx.add_bc("move", "pull", rod=pulled.rope, nodes=pull_nodes, velocity=list(v * axis),
                            ramp_time=float(ctx.params["ramp_time"]) or None)
         else:
-            rate = float(ctx.params["force_rate"])
             if t_pre > 0:
-                ctx.add_bc("move", "pre_pull", rod=pulled.rope, nodes=pull_nodes, waypoints=pre(d_pull), stop=t_pre)
+                ctx.add_bc("move", "pre_pull", rod=pulled.rope, nodes=pull_nodes, waypoints=self._out(ctx, d_pull),
+                           stop=t_pre)
             ctx.add_bc("force", "pull", rod=pulled.rope, nodes=pull_nodes, start=t_pre,
-                       ramp={"from": [0.0, 0.0, 0.0], "rate": list(rate * axis)})
+                       ramp={"from": [0.0, 0.0, 0.0], "rate": list(float(ctx.params["force_rate"]) * axis)})
         ctx.plan = TwoRopePlan(ends, axis, pulled.rope, list(pull_nodes),
                                np.mean([geo.ropes[pulled.rope][i] for i in pull_nodes], axis=0))
+
+    @staticmethod
+    def _out(ctx: RunContext, d: np.ndarray, then=None) -> dict:
+        """Waypoints of a cinched end: out along ``d`` (unit) at ``pre_tighten_speed`` for ``ctx.t_pre``
+        s, then at the velocity ``then`` (m/s) or still."""
+        v_pre, t_pre = float(ctx.params["pre_tighten_speed"]), ctx.t_pre
+        w = {"times": [0.0, t_pre], "points": [[0.0, 0.0, 0.0], list(v_pre * t_pre * d)]}
+        if then is not None:
+            w["then_velocity"] = list(then)
+        return w
+
+    def _cinch(self, ctx: RunContext, ends: BendEnds, held_nodes) -> None:
+        """The cinching stage's groups: the held end and both tails move outwards along their own end
+        tangents; then the tails are released and the held end stays where it got to."""
+        geo, held = ctx.geometry, ends.held
+        ctx.add_bc("move", "held", rod=held.rope, nodes=held_nodes,
+                   waypoints=self._out(ctx, end_direction(geo.ropes[held.rope], held.node)))
+        for name, (rope, end) in zip(("tail_a", "tail_b"), ends.free_ends, strict=True):
+            n = len(geo.ropes[rope])
+            node = 0 if end == 0 else n - 1
+            ctx.add_bc("move", f"pre_{name}", rod=rope, nodes=end_group_nodes(node, n),
+                       waypoints=self._out(ctx, end_direction(geo.ropes[rope], node)), stop=ctx.t_pre)
 
     def prepare(self, ctx: RunContext) -> None:
         plan = ctx.plan
