@@ -41,6 +41,7 @@ def test_compare_prints_one_row_per_knot_with_loads_or_outcomes(compared):
     _, out, res = compared
     assert res.exit_code == 0, res.output  # one case failed, not every case
     assert re.search(r"^knot\s+mu = 0\.3$", res.output, re.M), res.output
+    assert "not a measurement" in res.output  # quick settings do not rank knots: said
     cells = _cells(res.output)
     for knot in ("reef_bend", "granny_bend"):
         assert re.fullmatch(r"[≤> ]*[\d.]+ / [≤ ]*([\d.]+|—) mN, (held|slipped|untied|capsized|undecided)(, not set)?",

@@ -77,6 +77,10 @@ def compare(knots: tuple[str, ...], protocol: str, assignments: tuple[str, ...],
         click.echo(f"failed: {f['knot']} at mu = {f['mu']:g} (case {f['case_id']}): {f['error']}", err=True)
     for note in res.notes:
         click.echo(f"note: pictures: {note}", err=True)
+    if quick:
+        from knotsim.study.compare import QUICK_WARNING
+
+        click.echo(f"note: {QUICK_WARNING}")
     click.echo(f"report: {res.report}")
     if res.all_failed:
         raise click.exceptions.Exit(EXIT_FAILED_CHECKS)

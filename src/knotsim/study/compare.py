@@ -154,6 +154,12 @@ def _knot_entry(knot: str, builtin: set[str]) -> str:
                               f"({', '.join(sorted(builtin))}), or give the path of a .toml drawing")
 
 
+#: said with every quick comparison: its coarse settings show that the runs work, they do not rank knots
+QUICK_WARNING = ("Quick settings (coarse rope, long time steps, a fast load) are a first look at what the "
+                 "runs do, not a measurement: the order of the knots can differ from the full-size runs'. "
+                 "Run without --quick to compare them.")
+
+
 def _protocol_defaults(protocol: str, quick: bool) -> tuple[dict, dict]:
     """The protocol's defaults (common ones included) and its quick settings (empty unless ``quick``)."""
     from knotsim.protocols.params import COMMON_DEFAULTS
@@ -732,6 +738,7 @@ def _write_report(result: CompareResult, study: dict, quick: bool) -> None:
              f"Protocol `{result.protocol}`" + (" with its quick settings" if quick else "")
              + f"; {n} cases ({n - n_fail} completed, {n_fail} failed"
              + (f", {result.reused} reused from an earlier run" if result.reused else "") + ").",
+             *([f"**{QUICK_WARNING}**", ""] if quick else []),
              f"The study is `{STUDY_FILE}` (rerun: `knotsim study {STUDY_FILE} -o {STUDY_DIR} --resume`), "
              f"its results `{STUDY_DIR}/results.parquet` (`knotsim report {STUDY_DIR}` for the study's own "
              "report).", "", "## Results", "", result.legend(), "", result.text(markdown=True), ""]
