@@ -22,8 +22,7 @@ twist angles, forces, moments) takes the time elapsed since its group became act
 
 from __future__ import annotations
 
-import importlib
-
+from knotsim._util.lazy import lazy_loader
 from knotsim._version import __version__
 from knotsim.errors import (
     ConfigError,
@@ -66,17 +65,7 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'knotsim' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_loader("knotsim", _LAZY, globals())
 
 
 __all__ = ["ConfigError", "GeometryError", "KnotsimError", "SimulationError", "ValidityError", "__version__",

@@ -7,7 +7,7 @@ The picture functions load on first use: :func:`render_frame`, :func:`render_run
 
 from __future__ import annotations
 
-import importlib
+from knotsim._util.lazy import lazy_loader
 
 _LAZY = {"render_frame": "knotsim.viz.render", "render_run": "knotsim.viz.render",
          "render_key_frames": "knotsim.viz.render", "knot_region": "knotsim.viz.framing"}
@@ -15,14 +15,4 @@ _LAZY = {"render_frame": "knotsim.viz.render", "render_run": "knotsim.viz.render
 __all__ = sorted(_LAZY)
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'knotsim.viz' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_loader("knotsim.viz", _LAZY, globals())
