@@ -14,22 +14,17 @@ import numpy as np
 
 from knotsim.errors import ConfigError, GeometryError
 from knotsim.knots.clearance import ClosestPair, RopeEdges, closest_edge_pair, same_rope_min_gap
-from knotsim.knots.crossings import (
-    PlanarCrossing,
-    _gauss_signature,
-    _letters,
-    _planar_intersections,
-    projected_crossings,
-)
+from knotsim.knots.crossings import PlanarCrossing
+from knotsim.knots.diagram import check_diagram, crossing_lifts, match_letters
 from knotsim.knots.polyline import (
     _arc,
-    _bump,
     _fix_edge_lengths,
     _interp_at,
     _resample_polyline,
     _smooth_planar,
     _trim_or_extend,
 )
+from knotsim.knots.post import Post, build_on_post, plane_post
 from knotsim.knots.relax import _relax
 from knotsim.knots.spec import (
     DEFAULT_LENGTH,
@@ -80,6 +75,8 @@ class KnotGeometry:
         Loading hints of the spec resolved to node references.
     spec:
         The spec the geometry was built from.
+    post:
+        The rigid post the knot is tied round (:class:`~knotsim.knots.post.Post`, in m), or ``None``.
     """
 
     name: str
@@ -96,6 +93,7 @@ class KnotGeometry:
     pulled: tuple[NodeRef, ...]
     held: tuple[NodeRef, ...]
     spec: KnotSpec
+    post: Post | None = None
 
     @property
     def contact_distance(self) -> float:
@@ -132,6 +130,89 @@ class KnotGeometry:
         else:
             raise ValueError(f"node {ref.node} of rope {ref.rope} is not an end node")
         return v / np.linalg.norm(v)
+
+
+def _resolve_size(spec: KnotSpec, n_nodes, edge_length, radius, length) -> tuple[float, float, int]:
+    """Rod radius (m), rope length (m) and node count from the call, else the drawing's defaults."""
+    dflt = spec.defaults
+    radius = float(radius if radius is not None else dflt.get("radius", DEFAULT_RADIUS))
+    length = float(length if length is not None else dflt.get("length", DEFAULT_LENGTH))
+    if not radius > 0:
+        raise ConfigError("radius", f"must be > 0, got {radius}")
+    if not length > 0:
+        raise ConfigError("length", f"must be > 0, got {length}")
+    if n_nodes is not None and edge_length is not None:
+        raise ConfigError("n_nodes", "give n_nodes or edge_length, not both")
+    if n_nodes is None:
+        if edge_length is None and "edge_length" in dflt and "n_nodes" not in dflt:
+            edge_length = float(dflt["edge_length"])
+        if edge_length is not None:
+            if not edge_length > 0:
+                raise ConfigError("edge_length", f"must be > 0, got {edge_length}")
+            n_nodes = int(round(length / edge_length)) + 1
+        else:
+            n_nodes = int(dflt.get("n_nodes", DEFAULT_N_NODES))
+    if int(n_nodes) != n_nodes or n_nodes < 4:
+        raise ConfigError("n_nodes", f"need an integer >= 4, got {n_nodes}")
+    n_nodes = int(n_nodes)
+    return radius, length, n_nodes
+
+
+def _build_planar(spec: KnotSpec, n_nodes: int, radius: float, length: float, margin: float, lift: float,
+                  max_iter: int):
+    """Steps 1-7 of a planar drawing: ``(ropes, closest pair, crossings, same-rope gap, post or None)``."""
+    d = 2.0 * radius
+    target = d * (1.0 + margin)
+    seg = length / (n_nodes - 1)
+    n_ropes = len(spec.ropes)
+    names = tuple(r.name for r in spec.ropes)
+
+    # 1-2. smooth, scale to metres
+    dense_ds = min(seg / 4.0, length / 2000.0, d / 2.0)
+    raw = []
+    for r in spec.ropes:
+        extent = float(np.ptp(r.waypoints, axis=0).max())
+        raw.append(_smooth_planar(r.waypoints, extent / 4000.0))
+    scale = length / max(_arc(p)[-1] for p in raw)
+    planar = [_resample_polyline(p * scale, dense_ds) for p in raw]
+
+    # 3. crossings of the smoothed drawing, matched with the letters
+    arcs = [_arc(p) for p in planar]
+    passages, visits = match_letters(spec, planar, arcs, length)
+
+    # 4. lift the crossings with compact bumps: peak +-amp exactly at each crossing
+    z = crossing_lifts(spec, passages, arcs, 0.5 * lift * target, max(10.0 * d, 4.0 * seg))
+    curves = [np.column_stack([p, zz]) for p, zz in zip(planar, z, strict=True)]
+
+    # 5. exact length, resample
+    nodes = []
+    for cvec in curves:
+        full = _trim_or_extend(cvec, length)
+        s = _arc(full)
+        nodes.append(_interp_at(full, s, np.linspace(0.0, s[-1], n_nodes)))
+
+    # 6. relax
+    edges = RopeEdges([n_nodes] * n_ropes)
+    x = np.concatenate(nodes)
+    rest = np.full(len(edges.i0), seg)
+    min_gap = same_rope_min_gap(seg, d)
+    x = _relax(x, edges, rest, target, d * (1.0 + 0.5 * margin), max_iter, min_gap)
+    ropes = tuple(_fix_edge_lengths(x[edges.node_offset[r]:edges.node_offset[r + 1]], seg)
+                  for r in range(n_ropes))
+
+    # 7. checks
+    cp = closest_edge_pair(ropes, d, names, min_gap)
+    where = f"knot {spec.name!r} (N={n_nodes}, h={radius * 1e3:.3g} mm, L={length:g} m)"
+    if cp.distance < d:
+        raise GeometryError(
+            f"{where} still overlaps after relaxation: {cp.describe()}. Use more nodes, a thinner rod, "
+            f"or a looser drawing")
+    xing = check_diagram(where, ropes, spec, visits, cp)
+    post = None
+    if spec.post is not None:  # a pin through a planar drawing (a loop's eye), along z
+        post = plane_post(spec.post, scale, ropes, radius, where, names)
+
+    return ropes, cp, xing, min_gap, post
 
 
 def build_knot(spec: KnotSpec | Mapping[str, Any], n_nodes: int | None = None,
@@ -174,130 +255,13 @@ def build_knot(spec: KnotSpec | Mapping[str, Any], n_nodes: int | None = None,
         names the closest pair of edges.
     """
     spec = parse_knot_spec(spec)
-    dflt = spec.defaults
-    radius = float(radius if radius is not None else dflt.get("radius", DEFAULT_RADIUS))
-    length = float(length if length is not None else dflt.get("length", DEFAULT_LENGTH))
-    if not radius > 0:
-        raise ConfigError("radius", f"must be > 0, got {radius}")
-    if not length > 0:
-        raise ConfigError("length", f"must be > 0, got {length}")
-    if n_nodes is not None and edge_length is not None:
-        raise ConfigError("n_nodes", "give n_nodes or edge_length, not both")
-    if n_nodes is None:
-        if edge_length is None and "edge_length" in dflt and "n_nodes" not in dflt:
-            edge_length = float(dflt["edge_length"])
-        if edge_length is not None:
-            if not edge_length > 0:
-                raise ConfigError("edge_length", f"must be > 0, got {edge_length}")
-            n_nodes = int(round(length / edge_length)) + 1
-        else:
-            n_nodes = int(dflt.get("n_nodes", DEFAULT_N_NODES))
-    if int(n_nodes) != n_nodes or n_nodes < 4:
-        raise ConfigError("n_nodes", f"need an integer >= 4, got {n_nodes}")
-    n_nodes = int(n_nodes)
-    d = 2.0 * radius
-    target = d * (1.0 + margin)
-    seg = length / (n_nodes - 1)
-    n_ropes = len(spec.ropes)
+    radius, length, n_nodes = _resolve_size(spec, n_nodes, edge_length, radius, length)
+    if spec.post is not None and spec.post.drawn_on == "surface":
+        ropes, cp, xing, min_gap, post = build_on_post(spec, n_nodes, radius, length, margin=margin, lift=lift,
+                                                       max_iter=max_iter)
+    else:
+        ropes, cp, xing, min_gap, post = _build_planar(spec, n_nodes, radius, length, margin, lift, max_iter)
     names = tuple(r.name for r in spec.ropes)
-
-    # 1-2. smooth, scale to metres
-    dense_ds = min(seg / 4.0, length / 2000.0, d / 2.0)
-    raw = []
-    for r in spec.ropes:
-        extent = float(np.ptp(r.waypoints, axis=0).max())
-        raw.append(_smooth_planar(r.waypoints, extent / 4000.0))
-    scale = length / max(_arc(p)[-1] for p in raw)
-    planar = [_resample_polyline(p * scale, dense_ds) for p in raw]
-
-    # 3. crossings of the smoothed drawing, matched with the letters
-    pedges = RopeEdges([len(p) for p in planar])
-    px = np.concatenate(planar)
-    ci, cj, cs, ct = _planar_intersections(px, pedges)
-    arcs = [_arc(p) for p in planar]
-
-    def arcpos(e: int, u: float) -> tuple[int, float]:
-        r = int(pedges.rope[e])
-        k = int(pedges.local[e])
-        return r, float(arcs[r][k] + u * (arcs[r][k + 1] - arcs[r][k]))
-
-    # passages[r]: (arc position, crossing id) of every crossing met along rope r
-    passages: list[list[tuple[float, int]]] = [[] for _ in range(n_ropes)]
-    for c, (e1, u1, e2, u2) in enumerate(zip(ci, cs, cj, ct, strict=True)):
-        for r, sv in (arcpos(e1, u1), arcpos(e2, u2)):
-            passages[r].append((sv, c))
-    for r, rs in enumerate(spec.ropes):
-        passages[r].sort()
-        if len(passages[r]) != len(rs.passes):
-            raise ConfigError(
-                f"{spec.name}: ropes[{r}].crossings",
-                f"the smoothed drawing of rope {rs.name!r} passes through {len(passages[r])} crossings "
-                f"({len(ci)} crossings in the whole drawing) but {len(rs.passes)} over/under letters "
-                f"are declared ({_letters(rs.passes)!r}); fix the waypoints or the letters")
-    # visits[c]: the two (rope, arc position, is_over) passages of crossing c
-    visits: dict[int, list[tuple[int, float, bool]]] = {}
-    for r in range(n_ropes):
-        for (sv, c), is_over in zip(passages[r], spec.ropes[r].passes, strict=True):
-            visits.setdefault(c, []).append((r, sv, is_over))
-    for (ra, sa, oa), (rb, sb, ob) in visits.values():
-        if oa == ob:
-            raise ConfigError(
-                f"{spec.name}: crossings",
-                f"crossing at arc length {sa / length:.3f} L of rope {names[ra]!r} and "
-                f"{sb / length:.3f} L of rope {names[rb]!r} is declared {'over' if oa else 'under'} on "
-                f"both strands")
-
-    # 4. lift the crossings with compact bumps: peak +-amp exactly at each crossing (a bump vanishes,
-    # with zero slope, at the neighbouring crossings of the same rope)
-    amp = 0.5 * lift * target
-    wmax = max(10.0 * d, 4.0 * seg)
-    z = [np.zeros(len(p)) for p in planar]
-    for r in range(n_ropes):
-        pos = np.array([sv for sv, _ in passages[r]])
-        for (sv, _), is_over in zip(passages[r], spec.ropes[r].passes, strict=True):
-            others = np.abs(pos - sv)
-            others = others[others > 0]
-            w = min(wmax, float(others.min())) if len(others) else wmax
-            z[r] += (amp if is_over else -amp) * _bump((arcs[r] - sv) / w)
-    curves = [np.column_stack([p, zz]) for p, zz in zip(planar, z, strict=True)]
-
-    # 5. exact length, resample
-    nodes = []
-    for cvec in curves:
-        full = _trim_or_extend(cvec, length)
-        s = _arc(full)
-        nodes.append(_interp_at(full, s, np.linspace(0.0, s[-1], n_nodes)))
-
-    # 6. relax
-    edges = RopeEdges([n_nodes] * n_ropes)
-    x = np.concatenate(nodes)
-    rest = np.full(len(edges.i0), seg)
-    min_gap = same_rope_min_gap(seg, d)
-    x = _relax(x, edges, rest, target, d * (1.0 + 0.5 * margin), max_iter, min_gap)
-    ropes = tuple(_fix_edge_lengths(x[edges.node_offset[r]:edges.node_offset[r + 1]], seg)
-                  for r in range(n_ropes))
-
-    # 7. checks
-    cp = closest_edge_pair(ropes, d, names, min_gap)
-    where = (f"knot {spec.name!r} (N={n_nodes}, h={radius * 1e3:.3g} mm, L={length:g} m)")
-    if cp.distance < d:
-        raise GeometryError(
-            f"{where} still overlaps after relaxation: {cp.describe()}. Use more nodes, a thinner rod, "
-            f"or a looser drawing")
-    xing = projected_crossings(ropes)
-    want_letters = [rs.passes for rs in spec.ropes]
-    decl = []
-    for (ra, sa, oa), (rb, sb, _) in visits.values():
-        decl.append((ra, sa, rb, sb) if oa else (rb, sb, ra, sa))
-    _, want_pairs = _gauss_signature(decl, n_ropes)
-    got = [(c.over_rope, c.over_edge + c.over_t, c.under_rope, c.under_edge + c.under_t) for c in xing]
-    got_letters, got_pairs = _gauss_signature(got, n_ropes)
-    if [tuple(v) for v in got_letters] != [tuple(v) for v in want_letters] or got_pairs != want_pairs:
-        raise GeometryError(
-            f"{where}: the relaxed geometry no longer has the declared crossing diagram: got "
-            f"{', '.join(f'{n}: {_letters(g)!r}' for n, g in zip(names, got_letters, strict=True))}; declared "
-            f"{', '.join(f'{n}: {_letters(g)!r}' for n, g in zip(names, want_letters, strict=True))} "
-            f"(closest pair: {cp.describe()}). Use more nodes, a thinner rod, or spread the drawing out")
 
     def resolve(p: RopePoint) -> NodeRef:
         r = spec.rope_index(p.rope)
@@ -318,4 +282,5 @@ def build_knot(spec: KnotSpec | Mapping[str, Any], n_nodes: int | None = None,
         pulled=tuple(resolve(p) for p in spec.pulled),
         held=tuple(resolve(p) for p in spec.held),
         spec=spec,
+        post=post,
     )

@@ -43,24 +43,34 @@ def _bump(u: np.ndarray) -> np.ndarray:
     return v * v * v
 
 
-def _trim_or_extend(x: np.ndarray, target: float) -> np.ndarray:
-    """Cut both ends (or extend them straight along the end tangents) by equal amounts so that the
-    dense polyline ``x`` ``(K, 3)`` has arc length ``target``."""
+def _trim_or_extend(x: np.ndarray, target: float, split: float = 0.5, tangent_span: float | None = None) -> np.ndarray:
+    """Cut both ends (or extend them straight along the end tangents) so that the dense polyline
+    ``x`` ``(K, 3)`` has arc length ``target``; an extension gives the share ``split`` of the missing
+    length to the start and the rest to the end (a cut is always shared equally). The end tangents
+    are taken over ``tangent_span`` (m) of the curve (default: 2 % of ``target``, at most a quarter of
+    the curve)."""
     s = _arc(x)
     excess = s[-1] - target
     if excess >= 0:
         q = np.concatenate([[0.5 * excess], s[(s > 0.5 * excess) & (s < s[-1] - 0.5 * excess)],
                             [s[-1] - 0.5 * excess]])
         return _interp_at(x, s, q)
-    ext = -0.5 * excess
-    k = max(1, min(len(x) - 1, int(np.searchsorted(s, min(s[-1] / 4, 0.02 * target)))))
+    span = min(s[-1] / 4, 0.02 * target) if tangent_span is None else tangent_span
+    k = max(1, min(len(x) - 1, int(np.searchsorted(s, span))))
     t0 = x[0] - x[k]
     t1 = x[-1] - x[-1 - k]
     t0 /= np.linalg.norm(t0)
     t1 /= np.linalg.norm(t1)
-    n = max(2, int(math.ceil(ext / (s[-1] / (len(x) - 1)))) + 1)
-    a = np.linspace(1.0, 0.0, n)[:-1, None] * ext
-    return np.concatenate([x[0] + a * t0, x, x[-1] + a[::-1] * t1])
+    ds = s[-1] / (len(x) - 1)
+
+    def tail(ext: float) -> np.ndarray:  # distances out along a tail, outermost first, 0 excluded
+        if ext <= 0:
+            return np.zeros((0, 1))
+        n = max(2, int(math.ceil(ext / ds)) + 1)
+        return np.linspace(1.0, 0.0, n)[:-1, None] * ext
+
+    a0, a1 = tail(-split * excess), tail(-(1.0 - split) * excess)
+    return np.concatenate([x[0] + a0 * t0, x, x[-1] + a1[::-1] * t1])
 
 
 def _fix_edge_lengths(x: np.ndarray, length: float) -> np.ndarray:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -27,13 +28,15 @@ def _smooth_field(v: np.ndarray, edges: RopeEdges, passes: int) -> np.ndarray:
 
 
 def _relax(x: np.ndarray, edges: RopeEdges, rest: np.ndarray, target: float, accept: float,
-           max_iter: int, min_gap: int, stall_iter: int = 200) -> np.ndarray:
+           max_iter: int, min_gap: int, stall_iter: int = 200,
+           keep_out: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
     """Position-based relaxation: push apart close edge pairs, keep edge lengths.
 
     ``x`` is ``(Ntot, 3)``; ``rest`` the rest length of each global edge; pairs closer than
     ``target`` are pushed apart; stops when every pair is at least ``accept`` apart and edge
     strains are below 1e-4, or when the smallest distance has not grown for ``stall_iter``
-    iterations.
+    iterations. ``keep_out`` (optional) maps the nodes ``(Ntot, 3)`` back outside a rigid body (a post)
+    after every iteration.
     """
     x = x.copy()
     lmax = float(rest.max())
@@ -90,4 +93,6 @@ def _relax(x: np.ndarray, edges: RopeEdges, rest: np.ndarray, target: float, acc
                 corr = (0.5 * (le - rest[g]) / le)[:, None] * e
                 x[i0] += corr
                 x[i1] -= corr
+        if keep_out is not None:
+            x = keep_out(x)
     return x

@@ -70,6 +70,83 @@ class RopeSpec:
 
 
 @dataclass(frozen=True)
+class PostSpec:
+    """A rigid post the knot is tied round (the ``[post]`` table of a drawing).
+
+    Attributes
+    ----------
+    radius:
+        Post radius ``R`` (m).
+    drawn_on:
+        ``"surface"``: the ropes' waypoints are drawn on the post's surface, ``(turns, along, height)``:
+        the angle round the post in turns (1 = 360 degrees, may exceed 1), the position along the
+        post's axis and the height above its surface, both in rope diameters ``2h`` (height optional,
+        default 0). ``"plane"``: a planar drawing with the post through it along ``z`` at ``center``
+        (a pin through a loop's eye).
+    center:
+        ``(2,)`` drawing units: where the post crosses a planar drawing; ``None`` for a surface drawing.
+    length:
+        Length of the post along its axis (m); ``None``: 40 rope diameters, at least the drawing's
+        extent along the axis plus 20 diameters.
+    split:
+        Surface drawings: the share of the rope beyond the drawing given to its start (the rest to its
+        end), in ``[0, 1]``.
+    spin_inertia:
+        ``None``: the post is fixed; else its moment of inertia about its axis (kg m^2): free to spin.
+    """
+
+    radius: float
+    drawn_on: str = "surface"
+    center: tuple[float, float] | None = None
+    length: float | None = None
+    split: float = 0.5
+    spin_inertia: float | None = None
+
+
+def _parse_post(value: Any, name: str) -> PostSpec:
+    fld = f"{name}: post"
+    if not isinstance(value, Mapping):
+        raise ConfigError(fld, "must be a table [post] with radius (m) and drawn_on or center")
+    unknown = sorted(set(value) - {"radius", "drawn_on", "center", "length", "split", "spin_inertia"})
+    if unknown:
+        raise ConfigError(f"{fld}.{unknown[0]}", "unknown key (allowed: radius, drawn_on, center, length, split, "
+                                                 "spin_inertia)")
+
+    def positive(key: str, required: bool = False) -> float | None:
+        v = value.get(key)
+        if v is None:
+            if required:
+                raise ConfigError(f"{fld}.{key}", "missing (a positive number, m)")
+            return None
+        if isinstance(v, bool) or not isinstance(v, int | float) or not np.isfinite(v) or v <= 0:
+            raise ConfigError(f"{fld}.{key}", f"must be a positive number, got {v!r}")
+        return float(v)
+
+    radius = positive("radius", required=True)
+    assert radius is not None
+    center = value.get("center")
+    drawn_on = str(value.get("drawn_on", "plane" if center is not None else "surface"))
+    if drawn_on not in ("surface", "plane"):
+        raise ConfigError(f"{fld}.drawn_on", f"must be 'surface' or 'plane', got {drawn_on!r}")
+    if drawn_on == "plane":
+        try:
+            c = np.asarray(center, dtype=float)
+        except (TypeError, ValueError):
+            c = np.zeros(0)
+        if c.shape != (2,) or not np.all(np.isfinite(c)):
+            raise ConfigError(f"{fld}.center", f"a planar drawing's post needs center = [x, y] in drawing units, "
+                                               f"got {center!r}")
+        center = (float(c[0]), float(c[1]))
+    elif center is not None:
+        raise ConfigError(f"{fld}.center", "only for drawn_on = 'plane' (a surface drawing is centred on the post)")
+    split = value.get("split", 0.5)
+    if isinstance(split, bool) or not isinstance(split, int | float) or not 0.0 <= split <= 1.0:
+        raise ConfigError(f"{fld}.split", f"must be a fraction in [0, 1], got {split!r}")
+    return PostSpec(radius=radius, drawn_on=drawn_on, center=center, length=positive("length"),
+                    split=float(split), spin_inertia=positive("spin_inertia"))
+
+
+@dataclass(frozen=True)
 class KnotSpec:
     """A parsed knot drawing (see the module docstring for the format).
 
@@ -86,6 +163,8 @@ class KnotSpec:
         :func:`build_knot` when the call does not give them.
     meta:
         Any other keys of the spec, kept verbatim (e.g. ``topology`` notes, references).
+    post:
+        The post the knot is tied round (:class:`PostSpec`), or ``None``.
     """
 
     name: str
@@ -96,6 +175,7 @@ class KnotSpec:
     held: tuple[RopePoint, ...] = ()
     defaults: Mapping[str, Any] = field(default_factory=dict)
     meta: Mapping[str, Any] = field(default_factory=dict)
+    post: PostSpec | None = None
 
     @property
     def n_crossings(self) -> int:
@@ -173,6 +253,8 @@ def parse_knot_spec(data: Mapping[str, Any] | KnotSpec, source: str = "<dict>") 
     name = str(data.get("name", "")).strip()
     if not name:
         raise ConfigError(f"{source}: name", "missing knot name")
+    post = _parse_post(data["post"], name) if data.get("post") is not None else None
+    on_surface = post is not None and post.drawn_on == "surface"
     ropes_raw = data.get("ropes")
     if not isinstance(ropes_raw, Sequence) or isinstance(ropes_raw, str) or not ropes_raw:
         raise ConfigError(f"{name}: ropes", "need a non-empty list of [[ropes]] tables")
@@ -188,11 +270,16 @@ def parse_knot_spec(data: Mapping[str, Any] | KnotSpec, source: str = "<dict>") 
             wp = np.asarray(r.get("waypoints"), dtype=float)
         except (TypeError, ValueError) as exc:
             raise ConfigError(f"{fld}.waypoints", f"not a list of [x, y] pairs ({exc})") from None
-        if wp.ndim != 2 or wp.shape[1] != 2 or wp.shape[0] < 2:
+        if on_surface and wp.ndim == 2 and wp.shape[1] == 2:
+            wp = np.column_stack([wp, np.zeros(len(wp))])  # on the surface: height 0
+        if on_surface and (wp.ndim != 2 or wp.shape[1] != 3 or wp.shape[0] < 2):
+            raise ConfigError(f"{fld}.waypoints", f"a drawing on the post's surface needs at least 2 [turns, along, "
+                                                  f"height] points, got shape {wp.shape}")
+        if not on_surface and (wp.ndim != 2 or wp.shape[1] != 2 or wp.shape[0] < 2):
             raise ConfigError(f"{fld}.waypoints", f"need at least 2 [x, y] pairs, got shape {wp.shape}")
         if not np.all(np.isfinite(wp)):
             raise ConfigError(f"{fld}.waypoints", "contains non-finite values")
-        gaps = np.linalg.norm(np.diff(wp, axis=0), axis=1)
+        gaps = np.linalg.norm(np.diff(wp[:, :2], axis=0), axis=1)
         if np.any(gaps <= 1e-9 * max(1.0, float(np.ptp(wp)))):
             j = int(np.argmin(gaps))
             raise ConfigError(f"{fld}.waypoints", f"waypoints {j} and {j + 1} coincide ({wp[j].tolist()})")
@@ -216,7 +303,7 @@ def parse_knot_spec(data: Mapping[str, Any] | KnotSpec, source: str = "<dict>") 
     for key in defaults:
         if key not in ("radius", "length", "n_nodes", "edge_length"):
             raise ConfigError(f"{name}: defaults.{key}", "unknown key (allowed: radius, length, n_nodes, edge_length)")
-    known = {"name", "description", "kind", "ropes", "loading", "defaults"}
+    known = {"name", "description", "kind", "ropes", "loading", "defaults", "post"}
     meta = {k: v for k, v in data.items() if k not in known}
     return KnotSpec(
         name=name,
@@ -227,4 +314,5 @@ def parse_knot_spec(data: Mapping[str, Any] | KnotSpec, source: str = "<dict>") 
         held=held,
         defaults=defaults,
         meta=meta,
+        post=post,
     )

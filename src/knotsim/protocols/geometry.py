@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -56,6 +57,7 @@ class ProtocolGeometry:
     knot_hint: str | None = None
     contact_stiffness: float | None = None
     found: str = ""
+    post: Any = None
 
     def describe_ropes(self) -> str:
         """``"2 ropes in 'F.mat' (A: 125 nodes, B: 91 nodes)"``: how many ropes, where from, their
@@ -82,7 +84,8 @@ def geometry_from_library(knot: str, *, n_nodes=None, radius=None, length=None) 
     return ProtocolGeometry(name=geo.name, kind=geo.kind, ropes=[np.array(x, float) for x in geo.ropes],
                             rope_names=list(geo.rope_names), radius=float(geo.radius), length=float(geo.length),
                             held=tuple(EndRef(h.rope, h.node) for h in geo.held),
-                            pulled=tuple(EndRef(p.rope, p.node) for p in geo.pulled), source=str(knot))
+                            pulled=tuple(EndRef(p.rope, p.node) for p in geo.pulled), source=str(knot),
+                            post=geo.post)
 
 
 def _arc_length(x: np.ndarray) -> float:

@@ -90,6 +90,12 @@ def _params(ctx: RunContext) -> SecurityParams:
     return ctx.plan.params if ctx.plan is not None else SecurityParams.from_params(ctx.params)
 
 
+def _post(ctx: RunContext):
+    """The post the run's knot is tied round (:class:`knotsim.knots.post.Post`), ``None`` for a knot
+    without one (or a context without geometry)."""
+    return ctx.geometry.post if ctx.geometry is not None else None
+
+
 def _outward(geo, rope: int, node: int) -> np.ndarray:
     return end_direction(geo.ropes[rope], node)
 
@@ -98,7 +104,7 @@ class KnotSecurity(LoadingProtocol):
     name = "knot-security"
     description = ("Set a bend or a one-rope knot under a known tension, relax it, then load it (ramp, hold, slide, "
                    "pulses or jerks)")
-    kinds: tuple[str, ...] = ()
+    kinds: tuple[str, ...] = ("hitch", "loop")
     default_knot = "reef_bend"
     n_ropes = (2, 1)
     load_stage_name = "load"
@@ -155,8 +161,12 @@ class KnotSecurity(LoadingProtocol):
         sp = SecurityParams.from_params(ctx.params)
         t_set = sp.set_ramp + sp.set_hold
         ctx.t_pre = t_set + sp.relax_time
-        ends, anchor, all_ends, loaded = (self._setup_one_rope(ctx, sp, t_set) if len(geo.ropes) == 1
-                                          else self._setup_bend(ctx, sp, t_set))
+        if geo.post is not None:
+            ends, anchor, all_ends, loaded = self._setup_hitch(ctx, sp, t_set)
+        elif len(geo.ropes) == 1:
+            ends, anchor, all_ends, loaded = self._setup_one_rope(ctx, sp, t_set)
+        else:
+            ends, anchor, all_ends, loaded = self._setup_bend(ctx, sp, t_set)
         for group, rope, nodes, axis in loaded:
             self._load_stage(ctx, sp, group, rope, nodes, axis)
         ctx.plan = SecurityPlan(sp, t_set, ends, anchor, all_ends, loaded)
@@ -212,6 +222,28 @@ class KnotSecurity(LoadingProtocol):
         self._set_and_relax(ctx, sp, t_set, "end", 0, n - 1)
         return None, anchor, [(0, 0), (0, 1)], [("load_start", 0, end_group_nodes(0, n), -axis),
                                                 ("load", 0, end_group_nodes(n - 1, n), axis)]
+
+    def _setup_hitch(self, ctx: RunContext, sp: SecurityParams, t_set: float) -> tuple:
+        """A hitch, or a loop on a pin: the post is fixed (an obstacle of the run, see the pipeline);
+        the standing part (the knot's ``pulled`` hint) and the tail are set, then the standing part
+        is loaded along its own outward direction and the tail goes free."""
+        geo = ctx.geometry
+        if len(geo.ropes) != 1:
+            raise ConfigError("knot", f"a knot round a post is loaded with one rope; {geo.name!r} has {len(geo.ropes)}")
+        if sp.load_end != "standing":
+            raise ConfigError("load_end", "a hitch or a loop is loaded on its standing part; load_end = 'tail' is for "
+                                          "bends")
+        n = len(geo.ropes[0])
+        ends = [p.node for p in geo.pulled if p.rope == 0 and p.node in (0, n - 1)]
+        if not ends:
+            raise ConfigError("knot", f"{geo.name!r} has no [loading] pulled hint at an end (its standing part)")
+        standing = ends[0]
+        tail = n - 1 if standing == 0 else 0
+        self._set_and_relax(ctx, sp, t_set, "pull", 0, standing)
+        self._set_and_relax(ctx, sp, t_set, "tail", 0, tail)
+        end = (lambda node: 0 if node == 0 else 1)
+        return None, None, [(0, end(standing)), (0, end(tail))], [
+            ("load", 0, end_group_nodes(standing, n), _outward(geo, 0, standing))]
 
     def _load_stage(self, ctx: RunContext, sp: SecurityParams, group: str, rope: int, nodes, axis) -> None:
         """The load stage's boundary conditions on one loaded end (``axis`` its outward direction)."""
@@ -269,8 +301,11 @@ class KnotSecurity(LoadingProtocol):
         total = sum(float(np.sum(np.linalg.norm(np.diff(r, axis=0), axis=1))) for r in ropes)
         row = {"F": f, "F_norm": f * ctx.radius**2 / ctx.EI, "u_pull": u}
         if len(ropes) == 1:
-            outside = self_tail_lengths(ropes[0], ctx.radius, delta)
-            return {**row, "tail_a": math.nan, "tail_b": math.nan, "rope_gap": math.nan,
+            post = _post(ctx)
+            outside = self_tail_lengths(ropes[0], ctx.radius, delta, post)
+            # a hitch's tail (the one free end): the rope through the knot draws it in
+            tail = outside[plan.all_ends[1][1]] if post is not None else math.nan
+            return {**row, "tail_a": tail, "tail_b": 0.0 if post is not None else math.nan, "rope_gap": math.nan,
                     "in_knot": max(total - float(sum(outside)), 0.0), "turn_a": math.nan, "turn_b": math.nan}
         ends = plan.all_ends  # standing ends, then the tails
         outside = tail_lengths(ropes, ends, ctx.radius, delta)
@@ -321,6 +356,10 @@ class KnotSecurity(LoadingProtocol):
             gap = float(log["rope_gap"].iloc[-1])
             out.update(rope_gap_final=gap, ropes_apart=bool(gap > APART_RADII * ctx.radius))
         out.update(load_metrics(sp, measured_log(ctx, log), ctx.radius, norm))
+        if _post(ctx) is not None and "post_n_contacts" in log.columns and len(log):
+            # a hitch or a loop that let go of its post: no node of the rope touches it any more
+            out["post_contacts_end"] = int(log["post_n_contacts"].iloc[-1])
+            out["off_post"] = bool(out["post_contacts_end"] == 0)
         return out
 
     def slipped(self, ctx: RunContext, metrics: dict) -> bool:
@@ -332,12 +371,27 @@ class KnotSecurity(LoadingProtocol):
         ``untied`` (:func:`~knotsim.protocols.bends.untied`), ``slipped``, ``undecided``, else held."""
         if metrics.get("capsize_onset") is not None:
             return "capsized"
+        if metrics.get("off_post"):
+            return "untied"
         if untied(metrics, ctx.topology_end):
             return "untied"
         return self.slip_verdict(ctx, metrics)
+
+    def closure(self, ctx: RunContext, curves: list[np.ndarray]):
+        """A knot round a post is closed with the post: its axis, drawn ten post lengths long, is a
+        second component, so the link of rope and post (its linking number, its Jones polynomial)
+        says how the rope goes round the post; other knots as the base class."""
+        post = _post(ctx)
+        if post is None:
+            return curves, None, None
+        a, b = post.ends
+        axis = np.linspace(a - 5.0 * (b - a), b + 5.0 * (b - a), 201)
+        return [*curves, axis], None, None
 
     def topology_key(self, ctx: RunContext, topo: dict) -> str | None:
         """As for ``two-rope-bend`` (:func:`~knotsim.protocols.bends.bend_topology_key`); a one-rope
         knot by its signature."""
         ends = ctx.plan.ends if ctx.plan is not None else None
+        if _post(ctx) is not None:
+            return f"{topo.get('signature')}, Jones {topo.get('jones')}"
         return bend_topology_key(topo, ends.interleaved) if ends is not None else topo.get("signature")

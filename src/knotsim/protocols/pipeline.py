@@ -437,6 +437,11 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
         # would give way at once; a tied reef pulled at mu = 0.3 failed in its first step)
         contact["initial_stiffness"] = geo.contact_stiffness
     solver = {"dt": float(p["dt"]), **p.solver}
+    obstacles = []
+    if geo.post is not None:  # the post a hitch or a loop is tied round: fixed (or free to spin), the ropes' friction
+        obstacles.append(geo.post.obstacle_table("post", mu=float(p["mu"]), friction_model=contact["friction_model"],
+                                                 stick_distance=(contact.get("stick_distance")
+                                                                 if geo.post.spin_inertia is None else None)))
     data = {
         "description": f"{proto.name} on {geo.name}",
         "provenance": {"protocol": proto.name, "knot": geo.name, "geometry": geo.source,
@@ -448,6 +453,8 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
         "solver": solver,
         "run": {"duration": float(duration), "output_interval": float(p["output_interval"])},
     }
+    if obstacles:
+        data["obstacles"] = obstacles
     return proto, ctx, RunSpec.from_dict(data), notes
 
 

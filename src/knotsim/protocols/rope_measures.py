@@ -74,19 +74,10 @@ def tail_lengths(ropes: list[np.ndarray], free_ends: list[tuple[int, int]], radi
     return out
 
 
-def self_tail_lengths(x: np.ndarray, radius: float, delta: float) -> list[float]:
-    """Length (m) of each end of one rope outside its own knot, ``[first end, last end]``: from the
-    end to where it first comes within the contact distance of the rope itself (cut-off as in
-    :func:`tail_lengths`, interpolated along the edge as there), not counting the nodes next to it
-    along the rope (within half a turn of that distance, ``π`` x the cut-off of arc length: a bend
-    cannot bring them closer).
-
-    ``x`` ``(N, 3)`` node positions (m); ``radius`` and ``delta`` the rod radius and contact
-    tolerance (m)."""
-    seg = float(np.mean(np.linalg.norm(np.diff(x, axis=0), axis=1)))
-    cutoff = 2.0 * radius + delta + 0.5 * seg
+def _self_distance(x: np.ndarray, cutoff: float, seg: float) -> np.ndarray:
+    """Each node's distance (m) to the nodes of the same rope ``(N, 3)`` more than half a turn of
+    ``cutoff`` away along it (``inf`` beyond four cut-offs)."""
     skip = int(np.ceil(np.pi * cutoff / seg)) + 1
-    # each node's distance to the nodes of the rope more than `skip` nodes away (inf beyond 4 cut-offs)
     tree = cKDTree(x)
     dist = np.full(len(x), np.inf)
     pairs = tree.query_pairs(4.0 * cutoff, output_type="ndarray")
@@ -96,6 +87,24 @@ def self_tail_lengths(x: np.ndarray, radius: float, delta: float) -> list[float]
             d = np.linalg.norm(x[far[:, 0]] - x[far[:, 1]], axis=1)
             np.minimum.at(dist, far[:, 0], d)
             np.minimum.at(dist, far[:, 1], d)
+    return dist
+
+
+def self_tail_lengths(x: np.ndarray, radius: float, delta: float, post=None) -> list[float]:
+    """Length (m) of each end of one rope outside its own knot, ``[first end, last end]``: from the
+    end to where it first comes within the contact distance of the rope itself (cut-off as in
+    :func:`tail_lengths`, interpolated along the edge as there), not counting the nodes next to it
+    along the rope (within half a turn of that distance, ``π`` x the cut-off of arc length: a bend
+    cannot bring them closer), or, with a ``post`` (:class:`knotsim.knots.post.Post`: a hitch or a
+    loop on a pin), of the post (its surface within ``delta + l/2``).
+
+    ``x`` ``(N, 3)`` node positions (m); ``radius`` and ``delta`` the rod radius and contact
+    tolerance (m)."""
+    seg = float(np.mean(np.linalg.norm(np.diff(x, axis=0), axis=1)))
+    cutoff = 2.0 * radius + delta + 0.5 * seg
+    dist = _self_distance(x, cutoff, seg)
+    if post is not None:  # touching the post counts as touching the knot: gap to its surface + 2h
+        dist = np.minimum(dist, post.axis_distance(x) - post.radius + radius)
     if not np.any(dist <= cutoff):
         return [float(np.linalg.norm(np.diff(x, axis=0), axis=1).sum()), 0.0]  # no knot: counted once
     return [entry_arc_length(x, dist, cutoff, False), entry_arc_length(x, dist, cutoff, True)]
