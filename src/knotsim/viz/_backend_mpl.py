@@ -3,7 +3,9 @@
 All tube quads of all rods go into a single ``Poly3DCollection`` with Lambert + specular shading
 computed per quad; matplotlib's depth sort of that one collection makes crossing ropes occlude
 each other correctly. Back faces are culled first (the tubes are closed surfaces), which halves
-the work and removes most sorting artefacts.
+the work and removes most sorting artefacts. The obstacles of a run
+(:class:`knotsim.viz.obstacles.ObstacleMesh`) go into the same collection, so that a rope round a
+post hides it and is hidden by it; a plane's translucent patch is seen from both sides.
 """
 
 from __future__ import annotations
@@ -11,14 +13,16 @@ from __future__ import annotations
 import numpy as np
 
 from knotsim.viz.camera import camera_basis, plot_area
+from knotsim.viz.obstacles import ObstacleMesh
 from knotsim.viz.scene import BACKGROUND, NO_VALUE
 from knotsim.viz.tube import TubeMesh, unit
 
 __all__ = ["render_matplotlib"]
 
 
-def render_matplotlib(mesh: TubeMesh, rgb, box, fit, view, size, title, cmap, clim, label, dpi) -> np.ndarray:
-    """Draw ``mesh`` to an ``(h, w, 3)`` uint8-valued RGB array.
+def render_matplotlib(mesh: TubeMesh, rgb, box, fit, view, size, title, cmap, clim, label, dpi,
+                      obstacles: ObstacleMesh | None = None) -> np.ndarray:
+    """Draw ``mesh`` (and the ``obstacles``, if any) to an ``(h, w, 3)`` uint8-valued RGB array.
 
     ``rgb`` ``(n_rods, 3)`` colours in [0, 1] (used without scalars); ``box`` ``(3, 2)`` axis limits
     (m); ``fit`` ``(P, 3)`` points (m) the view is framed on; ``view`` ``(elev, azim)`` (deg);
@@ -68,6 +72,13 @@ def render_matplotlib(mesh: TubeMesh, rgb, box, fit, view, size, title, cmap, cl
     spec = np.clip(normals @ half, 0.0, None) ** 24
     shade = base * (0.28 + 0.72 * diffuse)[:, None] + 0.3 * spec[:, None]
     face = np.concatenate([np.clip(shade, 0, 1), np.ones((shade.shape[0], 1))], axis=1)
+    corners = mesh.vertices[polys]
+    edge = face
+    if obstacles is not None and not obstacles.empty:
+        o_corners, o_face, o_edge = _obstacle_faces(obstacles, towards, light, half)
+        corners = np.concatenate([corners, o_corners])
+        face = np.concatenate([face, o_face])
+        edge = np.concatenate([edge, o_edge])
 
     fig = Figure(figsize=(w / dpi, h / dpi), dpi=dpi, facecolor=BACKGROUND)
     canvas = FigureCanvasAgg(fig)
@@ -123,7 +134,7 @@ def render_matplotlib(mesh: TubeMesh, rgb, box, fit, view, size, title, cmap, cl
         zoom *= 0.92 * min(0.5 * bbox.width / half[0], 0.5 * bbox.height / half[1])
         ax.set_box_aspect(tuple(aspect), zoom=float(zoom))
 
-    coll = Poly3DCollection(mesh.vertices[polys], facecolors=face, edgecolors=face, linewidths=0.25)
+    coll = Poly3DCollection(corners, facecolors=face, edgecolors=edge, linewidths=0.25)
     coll.set_zsort("average")
     coll.set_clip_on(False)  # the 3D axes clips to a square; the image may use its whole box
     ax.add_collection3d(coll, autolim=False)
@@ -137,3 +148,24 @@ def render_matplotlib(mesh: TubeMesh, rgb, box, fit, view, size, title, cmap, cl
     img = np.asarray(canvas.buffer_rgba())[..., :3].copy()
     fig.clear()
     return img
+
+
+def _obstacle_faces(obstacles: ObstacleMesh, towards, light, half):
+    """Corners ``(Q, 4, 3)`` (m), face and edge colours ``(Q, 4)`` RGBA of the obstacles' quads seen
+    from ``towards``: closed surfaces back-face culled, open ones (a plane's patch) turned to face
+    the viewer; shaded as the tubes. Translucent quads get no edges (they would draw a grid)."""
+    normals = obstacles.quad_normals
+    owner = obstacles.quad_obstacle
+    facing = normals @ towards
+    two = obstacles.two_sided[owner]
+    normals = np.where((two & (facing < 0.0))[:, None], -normals, normals)
+    keep = two | (facing > -0.2)
+    normals, owner = normals[keep], owner[keep]
+    rgba = obstacles.rgba[owner]
+    diffuse = np.clip(normals @ light, 0.0, None)
+    spec = np.clip(normals @ half, 0.0, None) ** 24
+    shade = rgba[:, :3] * (0.28 + 0.72 * diffuse)[:, None] + 0.2 * spec[:, None]
+    face = np.concatenate([np.clip(shade, 0, 1), rgba[:, 3:]], axis=1)
+    edge = face.copy()
+    edge[face[:, 3] < 1.0, 3] = 0.0
+    return obstacles.vertices[obstacles.quads[keep]], face, edge

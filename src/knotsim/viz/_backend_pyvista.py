@@ -2,7 +2,9 @@
 
 OpenGL rendering off screen, smooth shading with per-vertex normals. On Linux without a display,
 ``VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow`` is set (unless already set) before ``vtk`` is
-first imported, so that it renders headless through EGL.
+first imported, so that it renders headless through EGL. The obstacles of a run
+(:class:`knotsim.viz.obstacles.ObstacleMesh`) are drawn as meshes of their own (a plane's patch
+translucent).
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import sys
 import numpy as np
 
 from knotsim.viz.camera import camera_basis, plot_area
+from knotsim.viz.obstacles import ObstacleMesh
 from knotsim.viz.scene import BACKGROUND, NO_VALUE
 from knotsim.viz.tube import TubeMesh
 
@@ -28,11 +31,12 @@ def import_pyvista():
     return pyvista
 
 
-def render_pyvista(mesh: TubeMesh, rgb, fit, view, size, title, cmap, clim, label) -> np.ndarray:
-    """Draw ``mesh`` off screen to an ``(h, w, 3)`` RGB array.
+def render_pyvista(mesh: TubeMesh, rgb, fit, view, size, title, cmap, clim, label,
+                   obstacles: ObstacleMesh | None = None) -> np.ndarray:
+    """Draw ``mesh`` (and the ``obstacles``, if any) off screen to an ``(h, w, 3)`` RGB array.
 
     Arguments as :func:`knotsim.viz._backend_mpl.render_matplotlib` (no axis box: the parallel
-    projection is framed on ``fit`` ``(P, 3)`` (m) alone).
+    projection is framed on ``fit`` ``(P, 3)`` (m) alone; the obstacles only push the camera back).
     """
     pv = import_pyvista()
     w, h = size
@@ -84,6 +88,20 @@ def render_pyvista(mesh: TubeMesh, rgb, fit, view, size, title, cmap, clim, labe
                 if sel.size:
                     part = polydata(mesh.quads[mesh.quad_rod == k], mesh.tris[mesh.tri_rod == k], sel)
                     plotter.add_mesh(part, color=tuple(rgb[k]), **shading)
+        if obstacles is not None and not obstacles.empty:
+            for k in range(len(obstacles.names)):  # a loop over the obstacles
+                sel = np.flatnonzero(obstacles.vertex_obstacle == k)
+                quads = obstacles.quads[obstacles.quad_obstacle == k]
+                if not sel.size or not quads.size:
+                    continue
+                remap = np.full(obstacles.vertices.shape[0], -1, dtype=np.int64)
+                remap[sel] = np.arange(sel.size)
+                tris = remap[quads][:, [0, 1, 2, 0, 2, 3]].reshape(-1, 3)  # a pole's quad: one flat triangle
+                surf = pv.PolyData(obstacles.vertices[sel], np.column_stack([np.full(len(tris), 3), tris]).ravel())
+                surf.point_data.active_normals = obstacles.normals[sel]
+                r, g, b, alpha = (float(c) for c in obstacles.rgba[k])
+                plotter.add_mesh(surf, color=(r, g, b), opacity=alpha, smooth_shading=True, specular=0.2,
+                                 specular_power=24.0)
         # parallel projection framed on the projected extent of `fit`, leaving room for the
         # title (top) and the colour bar (right)
         u, v = fit @ right, fit @ up
@@ -95,6 +113,9 @@ def render_pyvista(mesh: TubeMesh, rgb, fit, view, size, title, cmap, clim, labe
         target = u_mid * right + v_mid * up + float(d.mean()) * towards
         focal = target + right * (1.0 - a_w) * scale * w / h + up * (1.0 - a_h) * scale
         depth = float(d.max() - d.min()) + 2.0 * scale
+        if obstacles is not None and not obstacles.empty:  # the camera in front of them all
+            d_all = obstacles.vertices @ towards - float(d.mean())
+            depth = max(depth, 2.0 * float(np.abs(d_all).max()) + 2.0 * scale)
         plotter.enable_parallel_projection()
         plotter.camera_position = [tuple(focal + 2.0 * depth * towards), tuple(focal), tuple(up)]
         plotter.camera.parallel_scale = scale

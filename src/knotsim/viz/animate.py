@@ -2,7 +2,8 @@
 
 ``.gif`` files are written with Pillow (always installed with matplotlib); ``.mp4`` files need
 ``imageio`` and ``imageio-ffmpeg`` (``pip install knotsim[render]``). All frames share the framing
-of the box enclosing the whole animation, so the camera does not jump.
+of the box enclosing the whole animation, so the camera does not jump. The run's rigid obstacles
+(``[[obstacles]]`` of its ``run.toml``) are drawn at each frame's time (:mod:`knotsim.viz.obstacles`).
 """
 
 from __future__ import annotations
@@ -41,6 +42,7 @@ def animate_run(
     *,
     title: bool = True,
     progress: Callable[[int, int], None] | None = None,
+    obstacles: bool = True,
     **render_kw: Any,
 ) -> Path:
     """Render the frames of ``run_dir/trajectory.h5`` into an ``.mp4`` or ``.gif`` animation.
@@ -63,6 +65,8 @@ def animate_run(
         Draw ``"t = ... s"`` on each frame.
     progress:
         Optional callback ``progress(done, total)`` called after each rendered frame.
+    obstacles:
+        Draw the run's rigid obstacles (posts, spheres, planes) at each frame's time.
     **render_kw:
         More options of :func:`knotsim.viz.render.render_frame` (``view``, ``colors``,
         ``color_by``, ``cmap``, ``clim``, ``bounds``, ...).
@@ -78,6 +82,7 @@ def animate_run(
     streamed to ffmpeg frame by frame.
     """
     from knotsim.io.trajectory import read_trajectory
+    from knotsim.viz.obstacles import read_obstacles
     from knotsim.viz.render import _render_array, trajectory_bounds
 
     out = Path(out_path)
@@ -94,6 +99,7 @@ def animate_run(
         imageio = _import_imageio()  # fail before rendering anything
     out.parent.mkdir(parents=True, exist_ok=True)
 
+    tracks = read_obstacles(run_dir) if obstacles else []
     traj = read_trajectory(Path(run_dir) / "trajectory.h5", frames=slice(None, None, int(every)), lazy=True)
     with traj:
         if traj.n_frames == 0:
@@ -117,6 +123,7 @@ def animate_run(
                     size=(w, h),
                     backend=backend,
                     title=f"t = {traj.time[i]:.4g} s" if title else None,
+                    obstacles=[track.at(float(traj.time[i])) for track in tracks] or None,
                     **opts,
                 )
                 yield img

@@ -12,6 +12,10 @@ Two backends draw the same tube surface (:func:`knotsim.viz.tube.tube_mesh`, so 
 ``backend="auto"`` uses pyvista when it can be imported and falls back to matplotlib otherwise
 (or, with a warning, when pyvista fails to render).
 
+The rigid obstacles of a run (``[[obstacles]]`` of its ``run.toml``: posts, spheres, planes) are
+drawn with the ropes at each frame's time (:mod:`knotsim.viz.obstacles`); the knot framing stays on
+the knot and the part of a post the rope touches there, the rest of the post runs out of the picture.
+
 Views (:mod:`knotsim.viz.camera`, degrees, as matplotlib's ``view_init``): ``"iso"`` = (30, -60),
 ``"top"`` = (90, -90) looking down -z with x to the right and y up, ``"front"`` = (0, -90)
 looking along +y with x to the right and z up, or any ``(elev, azim)`` tuple.
@@ -33,6 +37,14 @@ from knotsim.viz._backend_mpl import render_matplotlib
 from knotsim.viz._backend_pyvista import import_pyvista, render_pyvista
 from knotsim.viz.camera import VIEWS, scene_bounds, view_angles
 from knotsim.viz.framing import knot_region
+from knotsim.viz.obstacles import (
+    ObstacleShape,
+    clip_box,
+    obstacle_focus,
+    obstacle_mesh,
+    obstacles_at,
+    read_obstacles,
+)
 from knotsim.viz.scene import (
     DEFAULT_COLORS,
     SPEED_FIELDS,
@@ -87,6 +99,7 @@ def _render_array(
     subdivisions: int = 3,
     n_sides: int = 12,
     dpi: int = 100,
+    obstacles: Sequence[ObstacleShape] | None = None,
 ) -> np.ndarray:
     """Render to an ``(h, w, 3)`` uint8 RGB array; arguments as :func:`render_frame`."""
     backend = as_backend(backend)
@@ -100,8 +113,14 @@ def _render_array(
     lines, rad, cl, rgb, vals, label = prepare_scene(centerlines, radii, closed, colors, color_by, scalars)
     if frame not in FRAMES:
         raise ConfigError("frame", f"must be one of {list(FRAMES)}, got {frame!r}")
+    shapes = list(obstacles) if obstacles is not None else []
+    if not all(isinstance(o, ObstacleShape) for o in shapes):
+        raise ConfigError("obstacles", "must be a list of knotsim.viz.obstacles.ObstacleShape "
+                                       "(e.g. obstacles_at(read_obstacles(run_dir), t))")
     if focus is None and bounds is None and frame == "knot":
         focus = np.stack(knot_region(lines, rad, cl), axis=1)
+        if shapes:  # and the part of a post the rope touches there
+            focus = obstacle_focus(focus, shapes, lines, rad)
     if focus is not None:
         focus = scene_bounds(lines, rad, focus)
     box = scene_bounds(lines, rad, bounds if focus is None else focus)
@@ -114,6 +133,9 @@ def _render_array(
         fit = mesh.vertices[inside] if np.count_nonzero(inside) >= 8 else corners
     else:
         fit = mesh.vertices if bounds is None else corners
+    # the obstacles round the framed box, a post cut well outside the picture
+    extra = obstacle_mesh(shapes, box, clip_box(box, (w, h))) if shapes else None
+    extra = None if extra is None or extra.empty else extra
 
     use = backend
     if backend is RenderBackend.AUTO:
@@ -124,7 +146,7 @@ def _render_array(
             use = RenderBackend.MATPLOTLIB
     if use is RenderBackend.PYVISTA:
         try:
-            img = render_pyvista(mesh, rgb, fit, ang, (w, h), title, cmap, lim, label)
+            img = render_pyvista(mesh, rgb, fit, ang, (w, h), title, cmap, lim, label, extra)
         except ImportError as exc:
             raise ImportError(
                 "the pyvista backend needs pyvista: pip install knotsim[render] (or use backend='matplotlib')"
@@ -136,7 +158,7 @@ def _render_array(
                           stacklevel=3)
             use = RenderBackend.MATPLOTLIB
     if use is RenderBackend.MATPLOTLIB:
-        img = render_matplotlib(mesh, rgb, box, fit, ang, (w, h), title, cmap, lim, label, int(dpi))
+        img = render_matplotlib(mesh, rgb, box, fit, ang, (w, h), title, cmap, lim, label, int(dpi), extra)
     img = np.ascontiguousarray(img, dtype=np.uint8)
     if img.shape[:2] != (h, w):  # guard against rounding in backends: pad / crop to the exact size
         out = np.full((h, w, 3), 255, dtype=np.uint8)
@@ -195,7 +217,11 @@ def render_frame(
         animations), ``frame`` (``"scene"``, the default: every tube; ``"knot"``: the ropes in
         contact plus a margin, :func:`knotsim.viz.framing.knot_region`), ``focus`` (a box as
         ``bounds`` the view is framed on, the tubes outside it clipped), ``subdivisions`` (spline points per segment, default 3), ``n_sides``
-        (vertices around the tube, default 12), ``dpi`` (matplotlib only, default 100).
+        (vertices around the tube, default 12), ``dpi`` (matplotlib only, default 100),
+        ``obstacles`` (rigid obstacles drawn with the rods: a list of
+        :class:`knotsim.viz.obstacles.ObstacleShape`, e.g. ``obstacles_at(read_obstacles(run_dir),
+        t)``; capsules and spheres grey, planes a translucent patch; ``frame="knot"`` adds the part
+        of a post the ropes touch in the knot, :func:`knotsim.viz.obstacles.obstacle_focus`).
 
     Returns
     -------
@@ -274,14 +300,21 @@ def _speed_range(traj: Any, frames: Sequence[int], name: str) -> tuple[float, fl
     return 0.0, top if top > 0.0 else 1.0
 
 
-def _frame_options(traj: Any, i: int, frame: str, opts: dict[str, Any]) -> dict[str, Any]:
+def _frame_options(traj: Any, i: int, frame: str, opts: dict[str, Any],
+                   tracks: Sequence[Any] = ()) -> dict[str, Any]:
     """``opts`` for a picture of loaded frame ``i``: framed on its knot (``frame="knot"``, unless a
-    ``bounds`` or ``focus`` is given) and with the node speeds of a speed ``color_by``."""
+    ``bounds`` or ``focus`` is given; with the part of a post the rope touches there), with the
+    obstacles of ``tracks`` (:class:`knotsim.viz.obstacles.ObstacleTrack`) at the frame's time,
+    and with the node speeds of a speed ``color_by``."""
     out = dict(opts)
+    shapes = obstacles_at(tracks, float(traj.time[i]))
+    if shapes:
+        out["obstacles"] = shapes
     if frame == "knot" and out.get("bounds") is None and out.get("focus") is None:
         from knotsim.viz.framing import trajectory_knot_region
 
-        out["focus"] = trajectory_knot_region(traj, i).box
+        box = trajectory_knot_region(traj, i).box
+        out["focus"] = obstacle_focus(box, shapes, traj.centerlines(i), traj.rod_radius) if shapes else box
     color_by = out.get("color_by")
     if color_by in SPEED_FIELDS and out.get("scalars") is None:
         out["scalars"] = node_speeds(traj, i, str(color_by))
@@ -299,6 +332,7 @@ def render_run(
     out_dir: str | os.PathLike | None = None,
     *,
     frame: str = "knot",
+    obstacles: bool = True,
     **kw: Any,
 ) -> list[Path]:
     """Render frames of a run's ``trajectory.h5`` to PNG files.
@@ -316,6 +350,9 @@ def render_run(
         margin (:func:`knotsim.viz.framing.trajectory_knot_region`, with its fallbacks when the
         ropes are apart); the rest of the ropes may be clipped. ``"scene"``: on every tube, and
         for several frames on the box enclosing all of them, so that every image has the same framing.
+    obstacles:
+        Draw the run's rigid obstacles (``[[obstacles]]`` of ``run_dir/run.toml``) at each frame's
+        time (:mod:`knotsim.viz.obstacles`).
     **kw:
         Passed to :func:`render_frame` (``view``, ``size``, ``backend``, ``color_by``, ...). Unless
         given, ``title`` is ``"t = ... s"``. ``color_by="slip_speed"`` or ``"rolling_speed"``
@@ -336,6 +373,7 @@ def render_run(
         sel = _select_file_frames(frames, traj.n_frames)
         out = Path(out_dir) if out_dir is not None else run / "render"
         opts = {k: v for k, v in kw.items() if k not in ("title", "closed")}
+        tracks = read_obstacles(run) if obstacles else []
         if frame == "scene" and len(sel) > 1 and "bounds" not in opts:
             opts["bounds"] = trajectory_bounds(traj, sel)
         if opts.get("color_by") in SPEED_FIELDS and opts.get("clim") is None:
@@ -351,7 +389,7 @@ def render_run(
                     closed=traj.rod_closed,
                     title=title,
                     png_text={"knotsim:frame": str(i), "knotsim:time": repr(float(traj.time[i]))},
-                    **_frame_options(traj, i, frame, opts),
+                    **_frame_options(traj, i, frame, opts, tracks),
                 )
             )
     return paths
@@ -423,6 +461,7 @@ def render_key_frames(
     color_by: str | None = None,
     size: tuple[int, int] = (640, 480),
     backend: str = "matplotlib",
+    obstacles: bool = True,
 ) -> list[Path]:
     """Render the key frames of a run, each framed on the knot, to ``<event>.png`` files.
 
@@ -452,6 +491,9 @@ def render_key_frames(
         ``(width, height)`` of the pictures in pixels.
     backend:
         ``"matplotlib"``, ``"pyvista"`` or ``"auto"`` (:func:`render_frame`).
+    obstacles:
+        Draw the run's rigid obstacles (``[[obstacles]]`` of its ``run.toml``: the post of a hitch)
+        at each frame's time (:mod:`knotsim.viz.obstacles`).
 
     Returns
     -------
@@ -474,6 +516,7 @@ def render_key_frames(
     name = str(summary.get("knot") or run.name) if isinstance(summary, dict) else run.name
     out = Path(out_dir) if out_dir is not None else run / "render"
     paths = []
+    tracks = read_obstacles(run) if obstacles else []
     with read_trajectory(run / "trajectory.h5", lazy=True) as traj:
         keys = key_frames(summary, np.asarray(traj.time), events)
         opts: dict[str, Any] = {"size": size, "backend": backend, "color_by": color_by}
@@ -488,5 +531,5 @@ def render_key_frames(
                 traj.centerlines(key.frame), traj.rod_radius, out / f"{key.name}.png", closed=traj.rod_closed,
                 title=title,
                 png_text={"knotsim:event": key.name, "knotsim:frame": str(key.frame), "knotsim:time": repr(t)},
-                **_frame_options(traj, key.frame, "knot", opts)))
+                **_frame_options(traj, key.frame, "knot", opts, tracks)))
     return paths

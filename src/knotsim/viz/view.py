@@ -4,9 +4,12 @@
 coloured by a node field such as the slip or rolling speed of the contacts) animated over time, a time slider and a play button, and beside them the force curve of the run
 with a marker at the shown frame. The plotly.js library is embedded in the page, so the page opens
 without network access (about 5 MB). It needs the ``view`` extra (``pip install 'knotsim[view]'``).
+The run's rigid obstacles (``[[obstacles]]`` of its ``run.toml``: posts, spheres, planes;
+:mod:`knotsim.viz.obstacles`) are drawn as grey surfaces (a plane as a translucent patch), moving
+with the frames when they move.
 
 :func:`show_window` opens an interactive pyvista window (the ``render`` extra): the rods as tubes,
-a slider over the frames. It needs a display; :func:`has_display` says whether there is one.
+a slider over the frames (and the obstacles). It needs a display; :func:`has_display` says whether there is one.
 
 The force curve (N, against time in s) is the protocol's pull force ``F`` when the log has it
 (``knotsim pull`` runs), else the magnitude ``<group>_force`` of every boundary-condition group's
@@ -82,12 +85,15 @@ def _frame_lines(traj, i: int) -> list[np.ndarray]:
     return [np.vstack([p, p[:1]]) if traj.rod_closed[r] else p for r, p in enumerate(lines)]
 
 
-def _scene_box(traj, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _scene_box(traj, frames: np.ndarray, shapes: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper corners (m) of the box the page's scene is framed on: the knot (the ropes in
     contact where they cross, plus a margin; :mod:`knotsim.viz.framing`) over every selected frame
-    that has one, else the first frame's closest approach between ropes or whole scene. Each side
-    is at least a tenth of the longest (a flat knot keeps some depth)."""
+    that has one, with the part of a post the ropes touch there (``shapes``: the obstacles at each
+    frame, :func:`knotsim.viz.obstacles.obstacle_focus`), else the first frame's closest approach
+    between ropes or whole scene. Each side is at least a tenth of the longest (a flat knot keeps
+    some depth)."""
     from knotsim.viz.framing import _box, _margin, knot_mask, knot_region, union_box
+    from knotsim.viz.obstacles import obstacle_focus
 
     radius, closed = traj.rod_radius, traj.rod_closed
     pad = _margin(np.asarray(radius, dtype=float), None)
@@ -96,7 +102,10 @@ def _scene_box(traj, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         lines = traj.centerlines(int(i))
         mask = np.concatenate(knot_mask(lines, radius, closed))
         if mask.any():
-            boxes.append(_box(np.concatenate(lines)[mask], pad))
+            box = _box(np.concatenate(lines)[mask], pad)
+            if shapes and shapes.get(int(i)):
+                box = obstacle_focus(box, shapes[int(i)], lines, radius)
+            boxes.append(box)
     if boxes:
         box = union_box(boxes)
         lo, hi = box[:, 0], box[:, 1]
@@ -127,6 +136,23 @@ class NodeField(StrEnum):
 
 #: The :class:`NodeField` members, in order.
 COLOR_FIELDS = tuple(NodeField)
+
+
+def _obstacle_trace(go, shape, region: np.ndarray, clip: np.ndarray):
+    """A plotly ``Mesh3d`` of one obstacle (:class:`knotsim.viz.obstacles.ObstacleShape`): its
+    surface round the ``(3, 2)`` ``region`` (m), a post cut at the ``clip`` box (m)."""
+    from matplotlib.colors import to_hex
+
+    from knotsim.viz.obstacles import obstacle_mesh
+
+    m = obstacle_mesh([shape], region, clip)
+    tris = m.quads[:, [0, 1, 2, 0, 2, 3]].reshape(-1, 3) if not m.empty else np.empty((0, 3), np.int64)
+    rgba = m.rgba[0] if not m.empty else np.array([0.6, 0.6, 0.6, 1.0])
+    v = m.vertices
+    return go.Mesh3d(x=v[:, 0], y=v[:, 1], z=v[:, 2], i=tris[:, 0], j=tris[:, 1], k=tris[:, 2],
+                     color=to_hex(rgba[:3]), opacity=float(rgba[3]), name=shape.name, hoverinfo="name",
+                     showlegend=True, flatshading=False,
+                     lighting={"ambient": 0.6, "diffuse": 0.6, "specular": 0.2, "roughness": 0.6})
 
 
 def _node_colors(traj, frames: np.ndarray, color_by: str) -> tuple[dict[int, list[np.ndarray]], float, str]:
@@ -203,15 +229,18 @@ def write_html(run_dir: str | os.PathLike, out: str | os.PathLike, *, max_frames
         ``out``.
     """
     from knotsim.io.trajectory import read_trajectory
+    from knotsim.viz.obstacles import read_obstacles
 
     go, make_subplots = _import_plotly()
     run = run_directory(run_dir)
     t_log, curves = force_curves(run)
+    tracks = read_obstacles(run)
     with read_trajectory(run / "trajectory.h5", lazy=True) as traj:
         if traj.n_frames == 0:
             raise ConfigError("trajectory", f"{run / 'trajectory.h5'} has no frames")
         frames = select_frames(traj.n_frames, max_frames)
-        lo, hi = _scene_box(traj, frames)
+        shapes = {int(i): [tr.at(float(traj.time[i])) for tr in tracks] for i in frames}
+        lo, hi = _scene_box(traj, frames, shapes)
         lines = {int(i): _frame_lines(traj, int(i)) for i in frames}
         times = np.asarray(traj.time[frames], dtype=float)
         names = list(traj.rod_names)
@@ -259,9 +288,26 @@ def write_html(run_dir: str | os.PathLike, out: str | os.PathLike, *, max_frames
         fig.update_xaxes(title_text="time (s)", row=1, col=2)
         fig.update_yaxes(title_text="force (N)", row=1, col=2)
 
-    animated = list(range(n_rods)) + ([marker_index] if marker_index is not None else [])
+    # the obstacles, round the scene box and cut just beyond it; those that move are animated
+    region = np.stack([lo, hi], axis=1)
+    clip = region + 0.02 * float(np.max(hi - lo)) * np.array([-1.0, 1.0])
+    first_index = len(fig.data)
+    moving = []
+    for o, track in enumerate(tracks):
+        fig.add_trace(_obstacle_trace(go, shapes[first][o], region, clip), row=1, col=1)
+        here = [shapes[int(i)][o] for i in frames]
+        if track.moves and not all(np.allclose(np.concatenate([s.a, s.b]), np.concatenate([here[0].a, here[0].b]))
+                                   and (s.normal is None or np.allclose(s.normal, here[0].normal)) for s in here):
+            moving.append(o)  # (a post turning about its own axis looks the same: not animated)
+
+    def obstacle_traces(i: int) -> list:
+        return [_obstacle_trace(go, shapes[i][o], region, clip) for o in moving]
+
+    animated = (list(range(n_rods)) + ([marker_index] if marker_index is not None else [])
+                + [first_index + o for o in moving])
     fig.frames = [go.Frame(name=f"{k}", traces=animated,
-                           data=rod_traces(int(i)) + ([marker(float(times[k]))] if has_force else []))
+                           data=rod_traces(int(i)) + ([marker(float(times[k]))] if has_force else [])
+                           + obstacle_traces(int(i)))
                   for k, i in enumerate(frames)]
     ext = hi - lo
     fig.update_scenes(xaxis={"range": [lo[0], hi[0]], "title": "x (m)"},
@@ -319,6 +365,16 @@ def show_window(run_dir: str | os.PathLike, *, max_frames: int = 200) -> None:  
         lines = [traj.centerlines(int(i)) for i in frames]
         times = np.asarray(traj.time[frames], dtype=float)
         radii, closed, names = traj.rod_radius.copy(), traj.rod_closed.copy(), list(traj.rod_names)
+    from knotsim.viz.obstacles import clip_box, obstacle_mesh, read_obstacles
+
+    tracks = read_obstacles(run)
+    every = np.concatenate([np.concatenate(ls) for ls in lines])
+    region = np.stack([every.min(axis=0), every.max(axis=0)], axis=1)
+
+    def obstacle_surface(track, k: int):
+        m = obstacle_mesh([track.at(float(times[k]))], region, clip_box(region))
+        tris = m.quads[:, [0, 1, 2, 0, 2, 3]].reshape(-1, 3)
+        return pv.PolyData(m.vertices, np.column_stack([np.full(len(tris), 3), tris]).ravel()), m.rgba
 
     def surface(k: int):
         mesh = tube_mesh(lines[k], radii, closed)
@@ -333,10 +389,19 @@ def show_window(run_dir: str | os.PathLike, *, max_frames: int = 200) -> None:  
     shown = surface(0)
     plotter.add_mesh(shown, scalars="rod", cmap=[ROD_COLORS[r % len(ROD_COLORS)] for r in range(len(names))],
                      show_scalar_bar=False, smooth_shading=True)
+    posts = []
+    for track in tracks:
+        surf, rgba = obstacle_surface(track, 0)
+        if surf.n_points:
+            plotter.add_mesh(surf, color=tuple(rgba[0, :3]), opacity=float(rgba[0, 3]), smooth_shading=True)
+            posts.append((track, surf))
 
     def on_slider(value: float) -> None:
         k = int(np.argmin(np.abs(times - value)))
         shown.copy_from(surface(k))
+        for track, surf in posts:
+            if track.moves:
+                surf.copy_from(obstacle_surface(track, k)[0])
         plotter.render()
 
     plotter.add_slider_widget(on_slider, [float(times[0]), float(times[-1])], value=float(times[0]),
