@@ -7,7 +7,7 @@ have shape ``(N, 3)``.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -217,8 +217,8 @@ def _build_planar(spec: KnotSpec, n_nodes: int, radius: float, length: float, ma
 
 def build_knot(spec: KnotSpec | Mapping[str, Any], n_nodes: int | None = None,
                edge_length: float | None = None, radius: float | None = None,
-               length: float | None = None, *, margin: float = 0.1, lift: float = 1.15,
-               max_iter: int = 3000) -> KnotGeometry:
+               length: float | None = None, *, post_radius: float | None = None, margin: float = 0.1,
+               lift: float = 1.15, max_iter: int = 3000) -> KnotGeometry:
     """Build 3D centrelines from a knot drawing.
 
     Parameters
@@ -235,6 +235,8 @@ def build_knot(spec: KnotSpec | Mapping[str, Any], n_nodes: int | None = None,
     length:
         Arc length of every rope (m). The drawing is scaled so its longest rope has this length;
         shorter ropes get their tails extended straight. Default: spec's or 1 m.
+    post_radius:
+        Radius (m) of the post of a knot drawn round one (``[post]``); default: the drawing's.
     margin:
         Relative clearance margin the relaxation aims for: pairs are pushed to ``d (1 + margin)``.
     lift:
@@ -256,6 +258,12 @@ def build_knot(spec: KnotSpec | Mapping[str, Any], n_nodes: int | None = None,
     """
     spec = parse_knot_spec(spec)
     radius, length, n_nodes = _resolve_size(spec, n_nodes, edge_length, radius, length)
+    if post_radius is not None:
+        if spec.post is None:
+            raise ConfigError("post_radius", f"knot {spec.name!r} is not tied round a post; leave post_radius unset")
+        if not (isinstance(post_radius, int | float) and post_radius > 0):
+            raise ConfigError("post_radius", f"must be a positive radius in m, got {post_radius!r}")
+        spec = replace(spec, post=replace(spec.post, radius=float(post_radius)))
     if spec.post is not None and spec.post.drawn_on == "surface":
         ropes, cp, xing, min_gap, post = build_on_post(spec, n_nodes, radius, length, margin=margin, lift=lift,
                                                        max_iter=max_iter)

@@ -76,11 +76,11 @@ def is_library_knot(name: str) -> bool:
     return name in {n for n, _ in list_knots()} or str(name).endswith(".toml")
 
 
-def geometry_from_library(knot: str, *, n_nodes=None, radius=None, length=None) -> ProtocolGeometry:
+def geometry_from_library(knot: str, *, n_nodes=None, radius=None, length=None, post_radius=None) -> ProtocolGeometry:
     """The library drawing ``knot`` built at the given resolution (defaults: the drawing's)."""
     from knotsim.knots.library import get_knot
 
-    geo = get_knot(knot, n_nodes=n_nodes, radius=radius, length=length)
+    geo = get_knot(knot, n_nodes=n_nodes, radius=radius, length=length, post_radius=post_radius)
     return ProtocolGeometry(name=geo.name, kind=geo.kind, ropes=[np.array(x, float) for x in geo.ropes],
                             rope_names=list(geo.rope_names), radius=float(geo.radius), length=float(geo.length),
                             held=tuple(EndRef(h.rope, h.node) for h in geo.held),

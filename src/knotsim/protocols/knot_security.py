@@ -146,6 +146,7 @@ class KnotSecurity(LoadingProtocol):
         "slip_rule": "through",  # "through": rope through the knot; "loaded_end": the loaded end alone
         "load_end": "standing",  # "standing": rope B's standing end loaded; "tail": rope A's tail, against
                                  # its own clamped standing end (how a reef bend capsizes; bends only)
+        "load_angle": 0.0,     # deg: a hitch's or loop's load tilted from the plane across the post towards its axis
         "stop_at_decision": True,  # end the run stop_margin s after its outcome is decided
         "stop_margin": 1.0,    # s the run goes on after the decision (stop_at_decision)
         "output_interval": 0.1,
@@ -161,6 +162,9 @@ class KnotSecurity(LoadingProtocol):
         sp = SecurityParams.from_params(ctx.params)
         t_set = sp.set_ramp + sp.set_hold
         ctx.t_pre = t_set + sp.relax_time
+        if geo.post is None and sp.load_angle:
+            raise ConfigError("load_angle", f"tilts the load of a knot round a post (a hitch or a loop); {geo.name!r} "
+                                            "has no post, leave load_angle = 0")
         if geo.post is not None:
             ends, anchor, all_ends, loaded = self._setup_hitch(ctx, sp, t_set)
         elif len(geo.ropes) == 1:
@@ -226,7 +230,9 @@ class KnotSecurity(LoadingProtocol):
     def _setup_hitch(self, ctx: RunContext, sp: SecurityParams, t_set: float) -> tuple:
         """A hitch, or a loop on a pin: the post is fixed (an obstacle of the run, see the pipeline);
         the standing part (the knot's ``pulled`` hint) and the tail are set, then the standing part
-        is loaded along its own outward direction and the tail goes free."""
+        is loaded along its own outward direction (tilted by ``load_angle``) and the tail goes free. A
+        mid-line loop (two ``pulled`` ends, e.g. the alpine butterfly) has no tail: both standing parts
+        are set and loaded, end to end, with the pin through its eye."""
         geo = ctx.geometry
         if len(geo.ropes) != 1:
             raise ConfigError("knot", f"a knot round a post is loaded with one rope; {geo.name!r} has {len(geo.ropes)}")
@@ -237,13 +243,29 @@ class KnotSecurity(LoadingProtocol):
         ends = [p.node for p in geo.pulled if p.rope == 0 and p.node in (0, n - 1)]
         if not ends:
             raise ConfigError("knot", f"{geo.name!r} has no [loading] pulled hint at an end (its standing part)")
+        if len(ends) == 2:  # a mid-line loop (two standing parts): both set and loaded, end to end, round the pin
+            self._set_and_relax(ctx, sp, t_set, "start", 0, 0)
+            self._set_and_relax(ctx, sp, t_set, "end", 0, n - 1)
+            return None, None, [(0, 0), (0, 1)], [("load_start", 0, end_group_nodes(0, n), self._hitch_axis(sp, geo, 0)),
+                                                  ("load", 0, end_group_nodes(n - 1, n), self._hitch_axis(sp, geo, n - 1))]
         standing = ends[0]
         tail = n - 1 if standing == 0 else 0
         self._set_and_relax(ctx, sp, t_set, "pull", 0, standing)
         self._set_and_relax(ctx, sp, t_set, "tail", 0, tail)
         end = (lambda node: 0 if node == 0 else 1)
         return None, None, [(0, end(standing)), (0, end(tail))], [
-            ("load", 0, end_group_nodes(standing, n), _outward(geo, 0, standing))]
+            ("load", 0, end_group_nodes(standing, n), self._hitch_axis(sp, geo, standing))]
+
+    @staticmethod
+    def _hitch_axis(sp: SecurityParams, geo, node: int) -> np.ndarray:
+        """The load direction (3,) of a knot round a post: the end's own outward direction, tilted by
+        ``load_angle`` from the plane across the post towards the post's axis."""
+        out = _outward(geo, 0, node)
+        if not sp.load_angle:
+            return out
+        across = out - np.dot(out, geo.post.axis) * geo.post.axis
+        a = math.radians(sp.load_angle)
+        return unit(math.cos(a) * unit(across) + math.sin(a) * geo.post.axis)
 
     def _load_stage(self, ctx: RunContext, sp: SecurityParams, group: str, rope: int, nodes, axis) -> None:
         """The load stage's boundary conditions on one loaded end (``axis`` its outward direction)."""
@@ -303,9 +325,10 @@ class KnotSecurity(LoadingProtocol):
         if len(ropes) == 1:
             post = _post(ctx)
             outside = self_tail_lengths(ropes[0], ctx.radius, delta, post)
-            # a hitch's tail (the one free end): the rope through the knot draws it in
-            tail = outside[plan.all_ends[1][1]] if post is not None else math.nan
-            return {**row, "tail_a": tail, "tail_b": 0.0 if post is not None else math.nan, "rope_gap": math.nan,
+            # a hitch's tail (its one free end): the rope through the knot draws it in
+            has_tail = post is not None and len(plan.loaded) == 1
+            tail = outside[plan.all_ends[1][1]] if has_tail else math.nan
+            return {**row, "tail_a": tail, "tail_b": 0.0 if has_tail else math.nan, "rope_gap": math.nan,
                     "in_knot": max(total - float(sum(outside)), 0.0), "turn_a": math.nan, "turn_b": math.nan}
         ends = plan.all_ends  # standing ends, then the tails
         outside = tail_lengths(ropes, ends, ctx.radius, delta)

@@ -20,6 +20,7 @@ COMMON_DEFAULTS: dict[str, Any] = {
     "n_nodes": None,          # nodes per rope (default: the knot drawing's, 301)
     "radius": None,           # rod radius h, m (default: the knot drawing's)
     "length": None,           # rope length L, m (default: the knot drawing's, 1 m)
+    "post_radius": None,      # m, the post a hitch or a loop is tied round (default: the knot drawing's)
     "youngs_modulus": 0.18e6,  # E, Pa
     "density": 1180.0,        # rho, kg/m^3
     "poisson_ratio": 0.5,
@@ -45,6 +46,7 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     # common to every protocol
     "n_nodes": ("-", "nodes per rope (none: the knot drawing's)"),
     "radius": ("m", "rod radius h (none: the knot drawing's)"),
+    "post_radius": ("m", "radius of the post a hitch or a loop is tied round (none: the knot drawing's)"),
     "length": ("m", "rope length L (none: the knot drawing's)"),
     "youngs_modulus": ("Pa", "Young's modulus E"),
     "density": ("kg/m^3", "mass density rho"),
@@ -138,6 +140,8 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
     "jerk_rise": ("s", "knot security, jerks: time from slack to the top of a jerk, and back"),
     "jerk_period": ("s", "knot security, jerks: time from one jerk to the next (slack between)"),
     "n_jerks": ("-", "knot security, jerks: number of jerks"),
+    "load_angle": ("deg", "knot security, a hitch or a loop: the load's angle to the plane across the post (0: the "
+                          "standing part pulled straight off the post; 90: along the post, towards its +axis end)"),
 }
 
 #: Allowed range of numeric protocol parameters, checked by :func:`check_param_ranges` before
@@ -145,7 +149,7 @@ PARAM_INFO: dict[str, tuple[str, str]] = {
 #: ``"int>=3"``, ``"poisson"`` in (-1, 0.5]. ``None`` values (decided by the protocol) are not
 #: checked; keys not listed only need to be finite.
 PARAM_RANGES: dict[str, str] = {
-    "n_nodes": "int>=3", "radius": ">0", "length": ">0", "youngs_modulus": ">0", "density": ">0",
+    "n_nodes": "int>=3", "radius": ">0", "post_radius": ">0", "length": ">0", "youngs_modulus": ">0", "density": ">0",
     "poisson_ratio": "poisson", "damping": ">=0", "mu": ">=0", "dt": ">0", "duration": ">0",
     "bending_stiffness": ">0", "torsional_stiffness": ">0",
     "output_interval": ">0", "geometry_scale": ">0", "ramp_time": ">=0", "settle_time": ">=0", "pull_speed": ">0", "e_final": ">0",
@@ -157,17 +161,18 @@ PARAM_RANGES: dict[str, str] = {
     "slip_speed": ">0", "hold_drift": ">0", "pulse_load": ">0", "pulse_period": ">0", "n_pulses": "int>=1",
     "spill_distance": ">0", "set_still_rate": ">0", "set_hold_max": ">0", "set_still_window": ">0",
     "jerk_load": ">0", "jerk_rise": ">0", "jerk_period": ">0", "n_jerks": "int>=1",
-    "stop_margin": ">=0", "detect_after": ">=0",
+    "stop_margin": ">=0", "detect_after": ">=0", "load_angle": "angle",
 }
 _RANGE_TEXT = {">0": "a positive number", ">=0": "a non-negative number", "int>=1": "a positive integer",
-               "int>=3": "an integer >= 3", "poisson": "a number in (-1, 0.5]"}
+               "int>=3": "an integer >= 3", "poisson": "a number in (-1, 0.5]", "angle": "an angle in [-90, 90] degrees"}
 
 
 #: :data:`PARAM_RANGES` as the bounds of :func:`knotsim._util.validate.number`
 _RANGE_BOUNDS: dict[str, dict[str, Any]] = {">0": {"above": 0.0}, ">=0": {"at_least": 0.0},
                                              "int>=1": {"whole": True, "at_least": 1},
                                              "int>=3": {"whole": True, "at_least": 3},
-                                             "poisson": {"above": -1.0, "at_most": 0.5}}
+                                             "poisson": {"above": -1.0, "at_most": 0.5},
+                                             "angle": {"at_least": -90.0, "at_most": 90.0}}
 
 
 def check_param_ranges(values: Mapping[str, Any]) -> None:

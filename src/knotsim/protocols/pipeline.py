@@ -363,7 +363,7 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
             raise ConfigError("geometry_matrices", f"names the matrices of a --geometry .mat file; {knot!r} is a "
                                                    "library knot")
         geo = geometry_from_library(knot, n_nodes=params["n_nodes"], radius=params["radius"],
-                                    length=params["length"])
+                                    length=params["length"], post_radius=params["post_radius"])
     else:
         for key in ("n_nodes", "length"):
             if quick_layer and key in quick_layer:
@@ -397,6 +397,9 @@ def build_protocol_run(name: str, knot: str | None = None, *, geometry: str | No
             raise ConfigError("radius", f"the run {geometry!r} was computed with radius {geo.radius} m; "
                                         "continuing it with another radius is not the same rope")
     _check_fit(proto, geo)
+    if params["post_radius"] is not None and geo.post is None:
+        raise ConfigError("post_radius", f"{geo.name!r} is not tied round a post (only a library hitch or loop is); "
+                                         "leave post_radius unset")
     _geometry_keys(params, geo)
     counts = [len(x) for x in geo.ropes]
     if len(set(counts)) > 1:

@@ -53,6 +53,7 @@ class SecurityParams:
     detect_after: float
     slip_rule: str
     load_end: str
+    load_angle: float
 
     @classmethod
     def from_params(cls, p) -> SecurityParams:
