@@ -54,6 +54,7 @@ _LAZY = {
     "read_checkpoint": "knotsim.io.checkpoint", "read_trajectory": "knotsim.io.trajectory",
     # knots
     "get_knot": "knotsim.knots.library", "list_knots": "knotsim.knots.library", "analyze": "knotsim.knots.topology",
+    "load_knot_spec": "knotsim.knots.library",
     "counting_rules": "knotsim.knots.topology", "knot_counting_rules": "knotsim.knots.topology",
     "tie_from_straight": "knotsim.knots.tying", "list_tying_sequences": "knotsim.knots.tying",
     # protocols and studies
