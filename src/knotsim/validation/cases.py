@@ -15,6 +15,7 @@ from knotsim.validation.bends import bends
 from knotsim.validation.cantilever import LARGE_DEFLECTION_TIP, tip_position
 from knotsim.validation.contact import contact_cases
 from knotsim.validation.helix import helix_equilibrium, helix_reference
+from knotsim.validation.hitches import hitch_theory
 from knotsim.validation.knots import overhand_tightening
 from knotsim.validation.obstacles import capstan, euler_pinned, floor_friction, michell
 from knotsim.validation.rolling import rolling_cases
@@ -81,7 +82,7 @@ CASES: dict[str, Callable[[bool], list[dict]]] = {"cantilever": cantilever, "hel
                                                   "single_rod_bend": single_rod_bend,
                                                   "bends": bends, "capstan": capstan,
                                                   "euler_pinned": euler_pinned, "floor_friction": floor_friction,
-                                                  "michell": michell}
+                                                  "michell": michell, "hitch_theory": hitch_theory}
 
 
 def run_cases(names=None, quick: bool = False, progress: bool = False) -> list[dict]:
