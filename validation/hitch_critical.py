@@ -39,7 +39,7 @@ def on_post_knots() -> list[str]:
     return [n for n, _ in ks.list_knots() if ks.load_knot_spec(n).kind in ("hitch", "loop")]
 
 
-def one(knot: str, load: float, out: str, overrides: dict) -> str:
+def one(knot: str, load: float, out: str, overrides: dict, bracket: tuple[float, float] = (MU_LOW, MU_HIGH)) -> str:
     """One knot's bisection, written to ``out`` (skipped when its file exists)."""
     import knotsim as ks
 
@@ -47,11 +47,11 @@ def one(knot: str, load: float, out: str, overrides: dict) -> str:
     if path.is_file():
         return f"{knot}: kept {path.name}"
     t0 = time.time()
-    res = ks.critical_friction(knot, load, mu_low=MU_LOW, mu_high=MU_HIGH, tol=TOL, drift_limit=DRIFT_LIMIT,
+    res = ks.critical_friction(knot, load, mu_low=bracket[0], mu_high=bracket[1], tol=TOL, drift_limit=DRIFT_LIMIT,
                                overrides=overrides)
     path.write_text(json.dumps({"knot": knot, "kind": ks.load_knot_spec(knot).kind, "load": load,
                                 "mu_slip": res.mu_slip, "mu_hold": res.mu_hold, "mu_c": res.mu_c, "runs": res.runs,
-                                "overrides": overrides, "bracket": [MU_LOW, MU_HIGH], "tol": TOL,
+                                "overrides": overrides, "bracket": list(bracket), "tol": TOL,
                                 "drift_limit": DRIFT_LIMIT, "hold_rule": "drift_through_late < drift_limit",
                                 "knotsim_version": ks.__version__, "wall_time_s": round(time.time() - t0, 1)},
                                indent=1))
@@ -96,6 +96,8 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(ROOT / "docs" / "studies" / "hitch_critical"))
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a knot-security parameter")
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--bracket", type=float, nargs=2, default=(MU_LOW, MU_HIGH), metavar=("MU_LOW", "MU_HIGH"),
+                    help="the μ bracket bisected (a band around a known μ_c needs fewer runs)")
     ap.add_argument("--table", action="store_true", help="write critical.md from the JSON files")
     a = ap.parse_args(argv)
     out = Path(a.out)
@@ -113,7 +115,7 @@ def main(argv=None) -> int:
     knots = a.knots or on_post_knots()
     with ProcessPoolExecutor(max_workers=a.jobs) as pool:
         for line in pool.map(one, knots, [a.load] * len(knots), [str(out)] * len(knots),
-                             [overrides] * len(knots)):
+                             [overrides] * len(knots), [tuple(a.bracket)] * len(knots)):
             sys.stdout.write(line + "\n")
             sys.stdout.flush()
     table(out)

@@ -400,21 +400,12 @@ class KnotSecurity(LoadingProtocol):
             return "untied"
         return self.slip_verdict(ctx, metrics)
 
-    def closure(self, ctx: RunContext, curves: list[np.ndarray]):
-        """A knot round a post is closed with the post: its axis, drawn ten post lengths long, is a
-        second component, so the link of rope and post (its linking number, its Jones polynomial)
-        says how the rope goes round the post; other knots as the base class."""
-        post = _post(ctx)
-        if post is None:
-            return curves, None, None
-        a, b = post.ends
-        axis = np.linspace(a - 5.0 * (b - a), b + 5.0 * (b - a), 201)
-        return [*curves, axis], None, None
-
     def topology_key(self, ctx: RunContext, topo: dict) -> str | None:
         """As for ``two-rope-bend`` (:func:`~knotsim.protocols.bends.bend_topology_key`); a one-rope
-        knot by its signature."""
+        knot, and a hitch or a loop (the rope alone, ends joined far away: the clove hitch an unknot,
+        the constrictor a trefoil), by its signature. A rope off its post is told by its contacts
+        (``off_post``), not by its topology."""
         ends = ctx.plan.ends if ctx.plan is not None else None
-        if _post(ctx) is not None:
-            return f"{topo.get('signature')}, Jones {topo.get('jones')}"
+        if _post(ctx) is not None:  # the rope alone (its link with the post changes as its ends swing round)
+            return topo.get("signature")
         return bend_topology_key(topo, ends.interleaved) if ends is not None else topo.get("signature")
