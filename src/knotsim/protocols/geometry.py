@@ -123,6 +123,10 @@ def geometry_from_source(path: str, *, radius: float | None, scale: float = 1.0,
     if is_run_directory(p):
         if scale != 1.0:
             raise ConfigError("geometry_scale", f"{str(p)!r} is a run directory, already in m; geometry_scale must be 1")
+        if _run_file(p).get("obstacles"):
+            raise ConfigError("geometry", f"{str(p)!r} is a run with rigid obstacles (a hitch's or a loop's post): "
+                                          "continuing it with --geometry would lose them; run the library knot again "
+                                          "instead (knotsim pull KNOT)")
         frames = read_run_frame(p, -1, field="geometry")
         ropes = [f.positions for f in frames]
         state = [{"velocities": f.velocities, "edge_angles": f.edge_angles,
