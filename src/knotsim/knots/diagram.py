@@ -11,7 +11,13 @@ import numpy as np
 
 from knotsim.errors import ConfigError, GeometryError
 from knotsim.knots.clearance import ClosestPair, RopeEdges
-from knotsim.knots.crossings import PlanarCrossing, _gauss_signature, _letters, _planar_intersections, projected_crossings
+from knotsim.knots.crossings import (
+    PlanarCrossing,
+    _gauss_signature,
+    _letters,
+    _planar_intersections,
+    projected_crossings,
+)
 from knotsim.knots.polyline import _bump
 from knotsim.knots.spec import KnotSpec
 

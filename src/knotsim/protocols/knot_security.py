@@ -252,8 +252,7 @@ class KnotSecurity(LoadingProtocol):
         tail = n - 1 if standing == 0 else 0
         self._set_and_relax(ctx, sp, t_set, "pull", 0, standing)
         self._set_and_relax(ctx, sp, t_set, "tail", 0, tail)
-        end = (lambda node: 0 if node == 0 else 1)
-        return None, None, [(0, end(standing)), (0, end(tail))], [
+        return None, None, [(0, 0 if standing == 0 else 1), (0, 0 if tail == 0 else 1)], [
             ("load", 0, end_group_nodes(standing, n), self._hitch_axis(sp, geo, standing))]
 
     @staticmethod
