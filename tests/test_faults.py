@@ -213,3 +213,27 @@ def test_study_base_must_lie_in_the_study_folder(tmp_path):
     (tmp_path / "s" / "inside.toml").write_text(dumps_toml(RUN))
     (tmp_path / "s" / "study.toml").write_text('base = "inside.toml"\n[grid]\n"solver.dt" = [1e-3, 2e-3]\n')
     assert len(load_study_spec(tmp_path / "s" / "study.toml").expand()) == 2
+
+
+def test_sigterm_inside_a_finaliser_is_raised_again_outside_it():
+    """A SIGTERM that arrives while a weakref callback or ``__del__`` runs would be printed as
+    "Exception ignored" and lost (the run then went on, deaf to further SIGTERMs): it is re-raised
+    by a short timer instead."""
+    import sys
+
+    from knotsim.cli import errors
+
+    old_term, old_alrm = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGALRM)
+
+    def __del__():  # a frame named like a finaliser (a real one would run again when collected)
+        errors._on_sigterm(signal.SIGTERM, sys._getframe())  # must not raise here
+
+    try:
+        __del__()
+        assert signal.getitimer(signal.ITIMER_REAL)[0] > 0  # armed
+        with pytest.raises(errors.Terminated):
+            time.sleep(1.0)  # the timer fires and raises outside the finaliser
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGTERM, old_term)
+        signal.signal(signal.SIGALRM, old_alrm)

@@ -28,7 +28,25 @@ class Terminated(KeyboardInterrupt):
     writes its log, ``run.json`` and checkpoint (outcome ``"interrupted"``) before it exits."""
 
 
+#: s after which a SIGTERM that arrived inside a finaliser is raised again
+RETRY_SECONDS = 0.05
+
+
+def _in_finaliser(frame) -> bool:
+    """Whether ``frame`` runs inside a finaliser (``__del__``, a weakref callback), where Python prints
+    an exception "ignored" and carries on: a SIGTERM raised there would be lost."""
+    while frame is not None:
+        if frame.f_code.co_name == "__del__" or frame.f_code.co_filename.endswith("weakref.py"):
+            return True
+        frame = frame.f_back
+    return False
+
+
 def _on_sigterm(signum, frame):
+    if _in_finaliser(frame):  # raise it again shortly, outside the finaliser
+        signal.signal(signal.SIGALRM, _on_sigterm)
+        signal.setitimer(signal.ITIMER_REAL, RETRY_SECONDS)
+        return
     signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the final writes
     raise Terminated("terminated by SIGTERM")
 
