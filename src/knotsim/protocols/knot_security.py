@@ -405,6 +405,4 @@ class KnotSecurity(LoadingProtocol):
         the constrictor a trefoil), by its signature. A rope off its post is told by its contacts
         (``off_post``), not by its topology."""
         ends = ctx.plan.ends if ctx.plan is not None else None
-        if _post(ctx) is not None:  # the rope alone (its link with the post changes as its ends swing round)
-            return topo.get("signature")
         return bend_topology_key(topo, ends.interleaved) if ends is not None else topo.get("signature")
